@@ -1,0 +1,3 @@
+"""gradekit: individual-value force-analysis assignments, worked keys and grading."""
+
+__version__ = "0.1.0"

@@ -1,0 +1,6 @@
+"""Allow `python -m gradekit`."""
+
+from gradekit.cli import main
+
+if __name__ == "__main__":  # pragma: no cover
+    main()

@@ -1,0 +1,80 @@
+"""The answer key: what one student must answer, in which unit, within which tolerance.
+
+Shared by the solver side (which computes keys), the documents (which print them) and the
+grader (which compares submissions with them).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+
+@dataclass(frozen=True)
+class Tolerance:
+    """A named tolerance mode with a pure predicate.
+
+    Modes:
+        ``relative``: accept x when |x - v| <= max(rel * |v|, abs).
+        ``sigfigs``: accept x when it equals v rounded to *sigfigs* significant figures,
+            i.e. |x - v| <= 0.5 * 10**(floor(log10|v|) - sigfigs + 1), widened by ``rel``/``abs``
+            if those are larger.
+    NaN and infinities are never accepted.
+    """
+
+    mode: str = "relative"
+    rel: float = 0.01
+    abs: float = 0.0
+    sigfigs: int = 3
+
+    def band(self, value: float) -> float:
+        """Half-width of the acceptance band around the key *value*."""
+        width = max(self.rel * abs(value), self.abs)
+        if self.mode == "sigfigs" and value != 0:
+            exponent = math.floor(math.log10(abs(value))) - self.sigfigs + 1
+            width = max(width, 0.5 * 10.0**exponent)
+        return width
+
+    def accepts(self, answer: float, value: float) -> bool:
+        """True when *answer* is within the band around *value*."""
+        if not (math.isfinite(answer) and math.isfinite(value)):
+            return False
+        return abs(answer - value) <= self.band(value) * (1 + 1e-12)
+
+    def describe(self) -> str:
+        """Human text, e.g. ``±1 % (at least 0.05)`` or ``3 significant figures``."""
+        if self.mode == "sigfigs":
+            return f"{self.sigfigs} significant figures"
+        text = f"±{self.rel * 100:g} %"
+        if self.abs:
+            text += f" (at least ±{self.abs:g})"
+        return text
+
+
+@dataclass(frozen=True)
+class Mistake:
+    """A catalogued mistake re-solved for one answer: its name and the value it leads to."""
+
+    name: str
+    description: str
+    value: float
+
+
+@dataclass(frozen=True)
+class KeyEntry:
+    """One answer of one student's variant.
+
+    ``key`` is unique within an assignment (``<problem-label>.<answer-key>``, e.g. ``p1.T``).
+    ``value`` is expressed in ``unit``; ``points`` is what the answer is worth.
+    """
+
+    student_id: str
+    problem: str
+    key: str
+    value: float
+    unit: str
+    tolerance: Tolerance
+    points: float = 1.0
+    description: str = ""
+    sign_convention: str = ""
+    mistakes: tuple[Mistake, ...] = field(default=())

@@ -1,0 +1,1 @@
+"""Planar mechanism kinematics and static/dynamic force analysis (numpy only)."""

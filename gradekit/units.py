@@ -1,0 +1,125 @@
+"""Unit parsing and conversion (pint), with the spellings engineers and students actually write.
+
+pint is the one place units are understood: it knows N, kN, lbf, slug, in, ft, mm, kg and their
+products, so the bank, the solver's boundary and the grader agree on every conversion. The
+mechanics core never sees units: values cross into it in SI.
+"""
+
+from __future__ import annotations
+
+import re
+from functools import lru_cache
+
+from gradekit.errors import GradekitError
+
+_REG = None
+
+# Spellings pint does not read as meant here. In a force-analysis course "lb" on a force, a weight
+# or a torque means pound-force; pint reads "lb" as pound-mass, so a unit whose dimension does not
+# match is retried with lb read as lbf (see `factor`).
+_SUBS = [
+    (re.compile(r"[·⋅•×]"), "*"),
+    (re.compile(r"²"), "**2"),
+    (re.compile(r"³"), "**3"),
+    (re.compile(r"\^"), "**"),
+    (re.compile(r"(?<=[A-Za-z])\.(?=[A-Za-z])"), "*"),  # N.m -> N*m
+    (re.compile(r"(?<=[A-Za-z])-(?=[A-Za-z])"), "*"),  # in-lb, lb-ft-s2 -> products
+    (re.compile(r"(?<=[A-Za-z])(\d)\b"), r"**\1"),  # s2, mm2 -> s**2, mm**2
+    (re.compile(r"\bsec\b"), "s"),
+    (re.compile(r"\bIb\b|\bIbf\b"), "lbf"),  # OCR'd "Ib" in the course documents
+    (re.compile(r"\bdeg\b|°"), "degree"),
+]
+
+
+def registry():
+    """The process-wide pint registry, created on first use (importing pint costs ~0.2 s)."""
+    global _REG
+    if _REG is None:
+        import pint
+
+        _REG = pint.UnitRegistry(autoconvert_offset_to_baseunit=True)
+    return _REG
+
+
+def normalise(unit: str) -> str:
+    """Rewrite common hand-written spellings (``N·mm``, ``in-lb``, ``rad/s^2``) into pint syntax."""
+    text = unit.strip()
+    for pattern, repl in _SUBS:
+        text = pattern.sub(repl, text)
+    return text or "dimensionless"
+
+
+def _lbf(text: str) -> str:
+    return re.sub(r"\blbs?\b", "lbf", text)
+
+
+@lru_cache(maxsize=4096)
+def _parse(text: str):
+    reg = registry()
+    try:
+        return reg.parse_units(normalise(text)) if text.strip() else reg.dimensionless
+    except Exception as exc:  # pint raises several unrelated types for bad input
+        raise GradekitError(f"expected a unit such as N, N*mm, lbf*in or rad/s**2, got {text!r}") from exc
+
+
+def check(unit: str) -> None:
+    """Raise `GradekitError` unless *unit* is a unit pint understands."""
+    _parse(unit)
+
+
+@lru_cache(maxsize=8192)
+def factor(from_unit: str, to_unit: str) -> float:
+    """The number to multiply a value in *from_unit* by to express it in *to_unit*.
+
+    A bare ``lb`` is read as pound-force when pound-mass would not fit the target's dimension.
+
+    Raises:
+        GradekitError: a unit is unreadable or the two measure different things.
+    """
+    src, dst = _parse(from_unit), _parse(to_unit)
+    reg = registry()
+    for candidate in (src, None):
+        if candidate is None:
+            try:
+                candidate = _parse(_lbf(normalise(from_unit)))
+            except GradekitError:
+                break
+        try:
+            return float(reg.Quantity(1.0, candidate).to(dst).magnitude)
+        except Exception:  # DimensionalityError
+            continue
+    raise GradekitError(f"expected a unit of the same kind as {to_unit!r}, got {from_unit!r}")
+
+
+def convert(value: float, from_unit: str, to_unit: str) -> float:
+    """Convert *value* from one unit to another (see `factor`)."""
+    if from_unit == to_unit:
+        return value
+    return value * factor(from_unit, to_unit)
+
+
+@lru_cache(maxsize=4096)
+def si_unit(unit: str) -> str:
+    """The SI base unit string with the dimension of *unit* (``N*mm`` -> ``kilogram * meter ** 2 / ...``)."""
+    reg = registry()
+    try:
+        q = reg.Quantity(1.0, _parse(unit)).to_base_units()
+    except Exception as exc:
+        raise GradekitError(f"expected a convertible unit, got {unit!r}") from exc
+    return str(q.units)
+
+
+def to_si(value: float, unit: str) -> float:
+    """Express *value* in *unit* in SI base units (metre, kilogram, second, radian)."""
+    return value * factor(unit, si_unit(unit)) if unit else value
+
+
+_PRETTY = [("**2", "²"), ("**3", "³"), ("*", "·"), ("degree", "°")]
+
+
+def pretty(unit: str) -> str:
+    """Display form of a unit string: ``N*mm`` -> ``N·mm``, ``mm/s**2`` -> ``mm/s²``."""
+    text = unit
+    for a, b in _PRETTY:
+        text = text.replace(a, b)
+    return text
