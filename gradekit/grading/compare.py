@@ -1,0 +1,194 @@
+"""Compare what a student answered with their key: tolerance, units, points and diagnosis."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+from gradekit.errors import GradekitError
+from gradekit.grading.reader import Answer, Issue, Submission
+from gradekit.keys import KeyEntry, Mistake
+from gradekit.roster import Student
+from gradekit.units import factor
+
+_DEG = 180.0 / math.pi
+
+
+def generic_mistakes(entry: KeyEntry) -> tuple[Mistake, ...]:
+    """Mistakes that need no re-solve: a sign flip, a ×1000 prefix slip, degrees for radians.
+
+    The solver side may merge these with its own re-solved mistakes; the grader also falls back
+    on them for any name the entry does not already carry.
+
+    Args:
+        entry: the key entry.
+
+    Returns:
+        ``sign flipped`` (−v, when v ≠ 0), ``×1000 unit slip`` and ``÷1000 unit slip`` (e.g.
+        N·mm for N·m), and for angular units ``degrees for radians`` (v·180/π) or
+        ``radians for degrees`` (v·π/180).
+    """
+    v = entry.value
+    found: list[Mistake] = []
+    if v != 0:
+        convention = f" (convention: {entry.sign_convention})" if entry.sign_convention else ""
+        found.append(Mistake("sign flipped", f"the sign is reversed{convention}", -v))
+    found.append(Mistake("×1000 unit slip", "1000 times too large (e.g. N·mm for N·m)", v * 1000))
+    found.append(Mistake("÷1000 unit slip", "1000 times too small (e.g. N·m for N·mm)", v / 1000))
+    unit = entry.unit.replace(" ", "").lower()
+    if unit.startswith("rad"):
+        found.append(Mistake("degrees for radians", "given in degrees, asked in radians", v * _DEG))
+    elif unit.startswith(("deg", "°")):
+        found.append(Mistake("radians for degrees", "given in radians, asked in degrees", v / _DEG))
+    return tuple(found)
+
+
+@dataclass(frozen=True)
+class AnswerResult:
+    """The verdict on one answer.
+
+    ``value`` is the answer in the key's unit (None when missing or unreadable); ``rel_error``
+    is |x − v| / |v| (None when v = 0 or no value); ``message`` says why an answer scored
+    nothing without being wrong (missing, unreadable, wrong kind of unit).
+    """
+
+    entry: KeyEntry
+    answer: Answer | None
+    value: float | None
+    correct: bool
+    points: float
+    rel_error: float | None
+    abs_error: float | None
+    diagnosis: Mistake | None = None
+    message: str = ""
+
+
+@dataclass(frozen=True)
+class ProblemScore:
+    """Points earned on one problem out of its maximum."""
+
+    problem: str
+    points: float
+    max_points: float
+
+
+@dataclass(frozen=True)
+class StudentGrade:
+    """One student's graded submission (or the lack of one)."""
+
+    student: Student
+    submission: Submission | None
+    results: tuple[AnswerResult, ...]
+    problems: tuple[ProblemScore, ...]
+    issues: tuple[Issue, ...]
+
+    @property
+    def total(self) -> float:
+        """Points earned."""
+        return sum(p.points for p in self.problems)
+
+    @property
+    def max_points(self) -> float:
+        """Points available."""
+        return sum(p.max_points for p in self.problems)
+
+    @property
+    def percent(self) -> float:
+        """Total as a percentage of the maximum (0 when nothing was available)."""
+        return 100.0 * self.total / self.max_points if self.max_points else 0.0
+
+
+def diagnose(entry: KeyEntry, value: float) -> Mistake | None:
+    """The first catalogued mistake whose value the entry's tolerance accepts *value* around.
+
+    The entry's own (re-solved) mistakes come first, then `generic_mistakes` not already named.
+    """
+    named = {m.name for m in entry.mistakes}
+    for mistake in (*entry.mistakes, *(m for m in generic_mistakes(entry) if m.name not in named)):
+        if math.isfinite(mistake.value) and entry.tolerance.accepts(value, mistake.value):
+            return mistake
+    return None
+
+
+def compare(entry: KeyEntry, answer: Answer | None) -> AnswerResult:
+    """Grade one answer against its key entry.
+
+    The answer is converted to the key's unit (a missing unit means the key's unit), accepted
+    by ``entry.tolerance.accepts``, and when wrong, diagnosed with `diagnose`.
+
+    Args:
+        entry: the key entry.
+        answer: what the student wrote for that key, or None.
+
+    Returns:
+        The verdict.
+    """
+    if answer is None:
+        return AnswerResult(entry, None, None, False, 0.0, None, None, message="no answer given")
+    if answer.number is None:
+        return AnswerResult(entry, answer, None, False, 0.0, None, None, message=answer.issue)
+    value = answer.number
+    if answer.unit and answer.unit != entry.unit:
+        try:
+            value = answer.number * factor(answer.unit, entry.unit)
+        except GradekitError as exc:
+            return AnswerResult(entry, answer, None, False, 0.0, None, None, message=exc.detail)
+    correct = entry.tolerance.accepts(value, entry.value)
+    abs_error = abs(value - entry.value)
+    rel_error = abs_error / abs(entry.value) if entry.value else None
+    diagnosis = None if correct else diagnose(entry, value)
+    points = entry.points if correct else 0.0
+    return AnswerResult(entry, answer, value, correct, points, rel_error, abs_error, diagnosis)
+
+
+def grade_student(
+    student: Student, entries: Sequence[KeyEntry], submission: Submission | None
+) -> StudentGrade:
+    """Grade one student's submission against their key entries.
+
+    Partial credit per problem is the sum of the points of the correct answers. Answers to keys
+    the student's key lacks, and keys left unanswered, become issues naming the file.
+
+    Args:
+        student: the student.
+        entries: the student's key entries.
+        submission: their submission, or None when there is none.
+
+    Returns:
+        The grade with one result per key entry, in key order.
+    """
+    answers = {a.key: a for a in submission.answers} if submission else {}
+    issues = list(submission.issues) if submission else []
+    results = []
+    for entry in entries:
+        result = compare(entry, answers.get(entry.key))
+        results.append(result)
+        if submission is None or not submission.readable:
+            continue
+        answer = result.answer
+        if answer is None:
+            issues.append(
+                Issue(submission.path, None, "key", f"expected an answer for {entry.key!r}, got none")
+            )
+        elif result.value is None:
+            issues.append(Issue(submission.path, answer.line, answer.field, result.message))
+    if submission is not None:
+        own = {e.key for e in entries}
+        for answer in submission.answers:
+            if answer.key not in own:
+                issues.append(
+                    Issue(
+                        submission.path,
+                        answer.line,
+                        "key",
+                        f"expected one of your keys, got {answer.key!r} (not in your assignment)",
+                    )
+                )
+    problems: dict[str, list[float]] = {}
+    for result in results:
+        earned_max = problems.setdefault(result.entry.problem, [0.0, 0.0])
+        earned_max[0] += result.points
+        earned_max[1] += result.entry.points
+    scores = tuple(ProblemScore(p, pts, mx) for p, (pts, mx) in problems.items())
+    return StudentGrade(student, submission, tuple(results), scores, tuple(issues))

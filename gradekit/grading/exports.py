@@ -1,0 +1,335 @@
+"""Write grades: the grade table, LMS imports, per-student feedback, the report and its plot."""
+
+from __future__ import annotations
+
+import hashlib
+import html
+import re
+import statistics
+from collections import Counter
+from collections.abc import Iterable, Mapping, Sequence
+from pathlib import Path
+
+from gradekit.csvsafe import atomic_write, write_csv
+from gradekit.grading.compare import AnswerResult, StudentGrade
+from gradekit.grading.integrity import IntegrityFlag
+from gradekit.units import pretty
+
+_RESERVED = re.compile(r"(con|prn|aux|nul|com[0-9¹²³]|lpt[0-9¹²³])(\..*)?", re.IGNORECASE)
+_UNSAFE = re.compile(r"[^A-Za-z0-9_-]+")  # no dots: nothing like '..', '.x' or 'x.'
+
+
+def safe_name(student_id: str, digits: int = 8) -> str:
+    """A file name stem for *student_id* that stays in its folder on every OS.
+
+    Ids made only of ``a-z 0-9 _ -`` that are not Windows device names are kept as they are;
+    any other id is reduced to those characters and suffixed with the first *digits* hex digits
+    of its SHA-256, so ``../x`` becomes ``x-<hash>`` and ``a/b`` and ``a_b`` stay apart. Upper
+    case also takes the suffix, so ids differing only in case never meet on a case-insensitive
+    file system.
+    """
+    clean = _UNSAFE.sub("_", student_id).strip("_-")[:48] or "student"
+    if clean == student_id and not _RESERVED.fullmatch(clean) and clean == clean.lower():
+        return clean
+    digest = hashlib.sha256(student_id.encode("utf-8", "surrogatepass")).hexdigest()
+    return f"{clean}-{digest[:digits]}"
+
+
+def safe_names(student_ids: Iterable[str]) -> dict[str, str]:
+    """`safe_name` for each id, lengthening the hash until no two names meet (case-folded)."""
+    ids = list(dict.fromkeys(student_ids))
+    for digits in (8, 16, 64):
+        names = {sid: safe_name(sid, digits) for sid in ids}
+        if len({n.casefold() for n in names.values()}) == len(ids):
+            return names
+    raise AssertionError("SHA-256 collision")  # pragma: no cover
+
+
+def fmt(value: float | None, digits: int = 4) -> str:
+    """A number for people: 4 significant figures, no trailing noise."""
+    if value is None:
+        return ""
+    return f"{value:.{digits}g}"
+
+
+def points(value: float) -> float | int:
+    """Points as written to CSVs: whole numbers as int, otherwise rounded to 4 decimals."""
+    rounded = round(value, 4)
+    return int(rounded) if rounded == int(rounded) else rounded
+
+
+def write_grades(
+    path: Path, grades: Sequence[StudentGrade], problems: Sequence[str], titles: Mapping[str, str]
+) -> None:
+    """``student_id,name``, points per problem, ``total,max,percent``; one row per student."""
+    header = ["student_id", "name", *(titles.get(p, p) for p in problems), "total", "max", "percent"]
+    rows = []
+    for g in grades:
+        earned = {p.problem: p.points for p in g.problems}
+        rows.append(
+            [
+                g.student.student_id,
+                g.student.name,
+                *(points(earned.get(p, 0.0)) for p in problems),
+                points(g.total),
+                points(g.max_points),
+                round(g.percent, 2),
+            ]
+        )
+    write_csv(path, header, rows)
+
+
+def write_canvas(path: Path, grades: Sequence[StudentGrade], assignment_title: str) -> None:
+    """Canvas gradebook import: ``Student, ID, SIS User ID, SIS Login ID, Section, <title>``.
+
+    Canvas matches a row by ``ID`` (its own user id, from a Canvas roster), else ``SIS User ID``
+    (our student id), else ``SIS Login ID``; the grade is the points total.
+    """
+    header = ["Student", "ID", "SIS User ID", "SIS Login ID", "Section", assignment_title]
+    rows = [
+        [
+            _last_first(g.student.name),
+            g.student.lms_id,
+            g.student.student_id,
+            g.student.sis_login,
+            g.student.section,
+            points(g.total),
+        ]
+        for g in grades
+    ]
+    write_csv(path, header, rows)
+
+
+def _last_first(name: str) -> str:
+    first, _, last = name.rpartition(" ")
+    return f"{last}, {first}" if first else name
+
+
+def write_moodle(path: Path, grades: Sequence[StudentGrade], assignment_title: str) -> None:
+    """Moodle grade import (Grades > Import > CSV file): ``ID number,Email address,<title>``.
+
+    Map ``ID number`` to "ID number" (or ``Email address`` to "Email address") and the title
+    column to the grade item in Moodle's import dialog; the grade is the points total.
+    """
+    header = ["ID number", "Email address", assignment_title]
+    rows = [[g.student.student_id, g.student.email, points(g.total)] for g in grades]
+    write_csv(path, header, rows)
+
+
+def _answer_lines(r: AnswerResult, reveal: bool) -> dict[str, str]:
+    """The cells of one feedback row, as plain text."""
+    unit = pretty(r.entry.unit)
+    read = ""
+    if r.answer is not None:
+        read = r.answer.raw + (f" [{r.answer.raw_unit}]" if r.answer.raw_unit else "")
+    if r.value is not None and r.answer is not None:
+        given = pretty(r.answer.unit) if r.answer.unit else f"{unit} (no unit given)"
+        parsed = f"{fmt(r.answer.number, 6)} {given}".strip()
+        if r.answer.unit and r.answer.unit != r.entry.unit:
+            parsed += f" = {fmt(r.value, 6)} {unit}"
+    else:
+        parsed = r.message
+    if r.correct:
+        verdict = "right"
+    elif r.value is None:
+        verdict = "not graded"
+    else:
+        verdict = "wrong"
+    if r.rel_error is not None:
+        off = f"{100 * r.rel_error:.3g} %"
+    elif r.abs_error is not None:
+        off = f"{fmt(r.abs_error)} {unit}"
+    else:
+        off = ""
+    diagnosis = f"{r.diagnosis.name}: {r.diagnosis.description}" if r.diagnosis else ""
+    return {
+        "key": r.entry.key,
+        "read": read,
+        "parsed": parsed,
+        "verdict": verdict,
+        "off": off,
+        "diagnosis": diagnosis,
+        "points": f"{fmt(r.points)}/{fmt(r.entry.points)}",
+        "correct": f"{fmt(r.entry.value, 6)} {unit} ({r.entry.tolerance.describe()})" if reveal else "",
+    }
+
+
+_COLUMNS = [
+    ("key", "Answer"),
+    ("read", "You wrote"),
+    ("parsed", "Read as"),
+    ("verdict", "Verdict"),
+    ("off", "Off by"),
+    ("diagnosis", "Likely mistake"),
+    ("points", "Points"),
+]
+
+
+def _md_cell(text: str) -> str:
+    text = text.replace("\\", "\\\\").replace("|", "\\|").replace("\n", " ").replace("\r", " ")
+    return re.sub(r"([`*_<>\[\]])", r"\\\1", text)
+
+
+def feedback_markdown(
+    grade: StudentGrade, titles: Mapping[str, str], assignment_title: str, reveal: bool
+) -> str:
+    """One student's feedback as Markdown (every cell escaped: students wrote some of it)."""
+    columns = _COLUMNS + ([("correct", "Correct answer")] if reveal else [])
+    s = grade.student
+    out = [
+        f"# {_md_cell(assignment_title)}: feedback for {_md_cell(s.display)} ({_md_cell(s.student_id)})",
+        "",
+        f"**Score: {fmt(grade.total)} / {fmt(grade.max_points)} ({grade.percent:.1f} %)**",
+        "",
+    ]
+    if grade.submission is None:
+        out += ["No submission was found for you.", ""]
+    else:
+        out += [f"Graded file: {_md_cell(grade.submission.path)}", ""]
+    for problem in grade.problems:
+        out += [
+            f"## {_md_cell(titles.get(problem.problem, problem.problem))}: "
+            f"{fmt(problem.points)} / {fmt(problem.max_points)}",
+            "",
+            "| " + " | ".join(title for _, title in columns) + " |",
+            "|" + "---|" * len(columns),
+        ]
+        for r in grade.results:
+            if r.entry.problem == problem.problem:
+                cells = _answer_lines(r, reveal)
+                out.append("| " + " | ".join(_md_cell(cells[k]) for k, _ in columns) + " |")
+        out.append("")
+    if grade.issues:
+        out += ["## Problems reading your file", ""]
+        out += [f"- {_md_cell(str(i))}" for i in grade.issues]
+        out.append("")
+    return "\n".join(out)
+
+
+_CSS = (
+    "body{font-family:sans-serif;max-width:60em;margin:2em auto}"
+    "table{border-collapse:collapse}td,th{border:1px solid #bbb;padding:.2em .5em}"
+    ".right{background:#e6f4e6}.wrong{background:#fbe9e9}.not{background:#f3f3f3}"
+)
+
+
+def feedback_html(grade: StudentGrade, titles: Mapping[str, str], assignment_title: str, reveal: bool) -> str:
+    """One student's feedback as a standalone HTML page (every text escaped)."""
+    e = html.escape
+    columns = _COLUMNS + ([("correct", "Correct answer")] if reveal else [])
+    s = grade.student
+    title = f"{assignment_title}: feedback for {s.display} ({s.student_id})"
+    out = [
+        "<!doctype html>",
+        '<html><head><meta charset="utf-8">',
+        f"<title>{e(title)}</title><style>{_CSS}</style></head><body>",
+        f"<h1>{e(title)}</h1>",
+        f"<p><strong>Score: {fmt(grade.total)} / {fmt(grade.max_points)} "
+        f"({grade.percent:.1f} %)</strong></p>",
+    ]
+    if grade.submission is None:
+        out.append("<p>No submission was found for you.</p>")
+    else:
+        out.append(f"<p>Graded file: <code>{e(grade.submission.path)}</code></p>")
+    for problem in grade.problems:
+        out.append(
+            f"<h2>{e(titles.get(problem.problem, problem.problem))}: "
+            f"{fmt(problem.points)} / {fmt(problem.max_points)}</h2>"
+        )
+        out.append("<table><tr>" + "".join(f"<th>{e(t)}</th>" for _, t in columns) + "</tr>")
+        for r in grade.results:
+            if r.entry.problem == problem.problem:
+                cells = _answer_lines(r, reveal)
+                css = cells["verdict"].split()[0]
+                out.append(
+                    f'<tr class="{css}">' + "".join(f"<td>{e(cells[k])}</td>" for k, _ in columns) + "</tr>"
+                )
+        out.append("</table>")
+    if grade.issues:
+        out.append("<h2>Problems reading your file</h2><ul>")
+        out += [f"<li><code>{e(str(i))}</code></li>" for i in grade.issues]
+        out.append("</ul>")
+    out.append("</body></html>")
+    return "\n".join(out)
+
+
+def write_histogram(path: Path, percents: Sequence[float], title: str) -> None:
+    """A histogram of the scores (percent, 10 % bins), saved as PNG without pyplot."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(6, 3.5))
+    FigureCanvasAgg(fig)
+    ax = fig.add_subplot()
+    ax.hist(list(percents), bins=[10.0 * i for i in range(11)], edgecolor="black")
+    ax.set_xlabel("score (%)")
+    ax.set_ylabel("students")
+    ax.set_title(title)
+    fig.tight_layout()
+    tmp = path.with_name(f".{path.name}.tmp.png")
+    fig.savefig(tmp, format="png", dpi=100)
+    tmp.replace(path)
+
+
+def report_markdown(
+    *,
+    assignment_title: str,
+    grades: Sequence[StudentGrade],
+    files: Sequence[tuple[str, str, str]],
+    flags: Sequence[IntegrityFlag],
+    histogram: str | None,
+) -> str:
+    """The instructor's report: summary, item analysis, integrity flags, file accounting."""
+    submitted = [g for g in grades if g.submission is not None]
+    percents = [g.percent for g in submitted]
+    out = [f"# {_md_cell(assignment_title)}: grading report", ""]
+    out += [
+        f"- students on the roster: {len(grades)}",
+        f"- graded submissions: {len(submitted)}",
+        f"- missing: {len(grades) - len(submitted)}",
+    ]
+    if percents:
+        out += [
+            f"- mean score: {statistics.fmean(percents):.1f} %",
+            f"- median score: {statistics.median(percents):.1f} %",
+        ]
+    out.append("")
+    if histogram:
+        out += [f"![Score histogram]({histogram})", ""]
+    out += [
+        "## Item analysis",
+        "",
+        "| Answer | Right | Answered | Most common mistakes |",
+        "|---|---|---|---|",
+    ]
+    stats: dict[str, list[AnswerResult]] = {}
+    for g in submitted:
+        for r in g.results:
+            stats.setdefault(r.entry.key, []).append(r)
+    for key, results in stats.items():
+        right = sum(r.correct for r in results)
+        answered = sum(r.value is not None for r in results)
+        mistakes = Counter(r.diagnosis.name for r in results if r.diagnosis)
+        common = ", ".join(f"{name} ({n})" for name, n in mistakes.most_common(3)) or "–"
+        share = 100.0 * right / len(results)
+        out.append(
+            f"| {_md_cell(key)} | {share:.0f} % ({right}/{len(results)}) | {answered} | {_md_cell(common)} |"
+        )
+    out.append("")
+    out += ["## Integrity flags", ""]
+    out += [f"- {_md_cell(f.describe())}" for f in flags] or ["None."]
+    out += ["", "## Files", "", "| File | Status | Detail |", "|---|---|---|"]
+    out += [f"| {_md_cell(p)} | {_md_cell(s)} | {_md_cell(d)} |" for p, s, d in files]
+    missing = [g.student for g in grades if g.submission is None]
+    out += ["", "## Students without a submission", ""]
+    out += [f"- {_md_cell(s.student_id)} {_md_cell(s.name)}" for s in missing] or ["None."]
+    messages = [(g.student.student_id, i) for g in submitted for i in g.issues]
+    out += ["", "## Messages", ""]
+    out += [f"- {_md_cell(sid)}: {_md_cell(str(i))}" for sid, i in messages] or ["None."]
+    out.append("")
+    return "\n".join(out)
+
+
+def write_text(path: Path, text: str) -> None:
+    """Write a text output atomically."""
+    atomic_write(path, text)

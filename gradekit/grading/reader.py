@@ -1,0 +1,490 @@
+"""Read students' answer CSVs as they really arrive: any encoding, delimiter, layout or damage."""
+
+from __future__ import annotations
+
+import csv
+import io
+import math
+import re
+from collections.abc import Iterable
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+
+from gradekit.csvsafe import decode_bytes, sniff_delimiter
+from gradekit.errors import GradekitError
+from gradekit.roster import Student, header_key
+
+MAX_BYTES = 2_000_000  # a submission of a few dozen answers is a few kB
+EXPECTED = "student_id,key,value,unit"
+
+
+@dataclass(frozen=True)
+class Issue:
+    """Something wrong with a submission, located as ``path:line: field: message``."""
+
+    path: str
+    line: int | None
+    field: str | None
+    message: str
+
+    def __str__(self) -> str:
+        return GradekitError(self.message, path=self.path, line=self.line, field=self.field).message
+
+
+@dataclass(frozen=True)
+class Answer:
+    """One answer as read: the raw text, and the number and unit it was parsed into.
+
+    ``number`` is in ``unit`` as written (``unit`` empty when none was given: the key's unit is
+    meant); it is None when the cell could not be read, and ``issue`` then says why.
+    """
+
+    key: str
+    raw: str
+    raw_unit: str
+    number: float | None
+    unit: str
+    line: int
+    field: str = "value"
+    issue: str = ""
+
+
+@dataclass(frozen=True)
+class Submission:
+    """What one file says for one student (a class-wide file yields several).
+
+    ``student_id`` is a roster id, or None when the file could not be tied to a student;
+    ``claimed`` then holds the ids it named. ``readable`` is False for files that gave no rows.
+    """
+
+    path: str
+    student_id: str | None
+    answers: tuple[Answer, ...] = ()
+    issues: tuple[Issue, ...] = ()
+    claimed: tuple[str, ...] = ()
+    readable: bool = True
+    mtime: float = 0.0
+    class_wide: bool = False
+
+
+class IdIndex:
+    """Match the ids students and LMS downloads write to roster ids.
+
+    Exact ids first, then forgiving forms a spreadsheet produces (case, ``12345.0``, lost
+    leading zeros) when they are unambiguous; LMS user ids (``Student.lms_id``) in file names.
+    """
+
+    def __init__(self, students: Iterable[Student]) -> None:
+        self.exact: dict[str, str] = {}
+        loose: dict[str, set[str]] = {}
+        for s in students:
+            self.exact[s.student_id] = s.student_id
+            for form in self._forms(s.student_id):
+                loose.setdefault(form, set()).add(s.student_id)
+            if s.lms_id:
+                self.exact.setdefault(s.lms_id, s.student_id)
+        self.loose = {k: next(iter(v)) for k, v in loose.items() if len(v) == 1}
+
+    @staticmethod
+    def _forms(text: str) -> list[str]:
+        t = text.strip().casefold()
+        if re.fullmatch(r"\d+\.0+", t):
+            t = t.split(".")[0]
+        forms = [t]
+        if t.isdigit():
+            forms.append(t.lstrip("0") or "0")
+        return forms
+
+    def match(self, raw: str) -> str | None:
+        """The roster id *raw* names, or None."""
+        text = raw.strip()
+        if text in self.exact:
+            return self.exact[text]
+        for form in self._forms(text):
+            if form in self.loose:
+                return self.loose[form]
+        return None
+
+    def from_path(self, relative: str) -> set[str]:
+        """Roster ids that stand as a token in a (relative) file path."""
+        stem = re.sub(r"\.[A-Za-z0-9]{1,5}$", "", relative)
+        tokens = set(re.split(r"[^0-9A-Za-z]+", stem)) | set(re.split(r"[\s_/\\]+", stem))
+        return {self.exact[t] for t in tokens if t in self.exact}
+
+
+class KeyIndex:
+    """The answer keys of the assignment, matched exactly, then case-insensitively."""
+
+    def __init__(self, keys: Iterable[str]) -> None:
+        self.keys = set(keys)
+        folded: dict[str, set[str]] = {}
+        for k in self.keys:
+            folded.setdefault(k.strip().casefold(), set()).add(k)
+        self.folded = {k: next(iter(v)) for k, v in folded.items() if len(v) == 1}
+
+    def match(self, raw: str) -> str | None:
+        """The key *raw* names, or None."""
+        text = raw.strip()
+        if text in self.keys:
+            return text
+        return self.folded.get(text.casefold())
+
+    def sample(self) -> str:
+        """A few keys for messages."""
+        ordered = sorted(self.keys)
+        return ", ".join(ordered[:4]) + (", …" if len(ordered) > 4 else "")
+
+
+_NUM = re.compile(
+    r"\s*(?P<num>[+-]?(?:\d+(?:[.,]\d*)?|[.,]\d+)(?:[eE][+-]?\d+)?)"
+    r"(?:\s*[x×*·]\s*10\s*(?:\^|\*\*)\s*(?P<exp>[+-]?\d+))?\s*(?P<unit>.*?)\s*"
+)
+_NONFINITE = re.compile(r"[+-]?(nan|inf|infinity|∞)", re.IGNORECASE)
+_SPACES = str.maketrans({"\u00a0": " ", "\u2009": " ", "\u202f": " ", "\u2212": "-", "\u2013": "-"})
+
+
+def parse_value(text: str, *, decimal_comma: bool) -> tuple[float, str]:
+    """Read a value cell such as ``1.12``, ``-3,5``, ``1.2e3`` or ``1120 N*mm``.
+
+    Args:
+        text: the cell.
+        decimal_comma: the file's delimiter is not a comma, so ``1,12`` means 1.12 (with a
+            comma delimiter a quoted ``1,120`` is ambiguous and refused).
+
+    Returns:
+        The number and the unit written after it (``""`` if none).
+
+    Raises:
+        ValueError: with the message to show (``expected a number, got 'abc'``).
+    """
+    cell = text.translate(_SPACES).strip()
+    if not cell:
+        raise ValueError("expected a number, got a blank cell")
+    m = _NUM.fullmatch(cell)
+    if m is None:
+        if _NONFINITE.match(cell):
+            raise ValueError(f"expected a finite number, got {text.strip()!r}")
+        raise ValueError(f"expected a number, got {_clip(text.strip())!r}")
+    num = m["num"]
+    if "," in num:
+        if "." in num or (not decimal_comma and re.search(r",\d{3}(?!\d)", num)):
+            raise ValueError(f"expected a number with a decimal point, got {_clip(text.strip())!r}")
+        num = num.replace(",", ".")
+    value = float(num)
+    if m["exp"]:
+        value *= 10.0 ** int(m["exp"][:6])
+    if not math.isfinite(value):
+        raise ValueError(f"expected a finite number, got {_clip(text.strip())!r}")
+    unit = m["unit"].strip()
+    if unit.startswith("[") and unit.endswith("]"):
+        unit = unit[1:-1].strip()
+    return value, unit
+
+
+def _clip(text: str, width: int = 40) -> str:
+    return text if len(text) <= width else text[: width - 1] + "…"
+
+
+_ID_COLS = ("student_id", "studentid", "id", "sid", "student", "student_number", "id_number")
+_KEY_COLS = ("key", "answer_key", "part", "question", "item")
+_VALUE_COLS = ("value", "answer", "result", "val")
+_UNIT_COLS = ("unit", "units", "unit_s")
+
+
+def _col(header: list[str], names: tuple[str, ...]) -> int | None:
+    for name in names:
+        if name in header:
+            return header.index(name)
+    return None
+
+
+def _binary(data: bytes, text: str) -> str | None:
+    if data.startswith(b"PK\x03\x04"):
+        return "expected a CSV text file, got a zip or Excel workbook (save it as CSV)"
+    if data.startswith(b"%PDF"):
+        return "expected a CSV text file, got a PDF"
+    sample = text[:4096]
+    control = sum(1 for c in sample if c < " " and c not in "\t\r\n\f")
+    if "\x00" in sample or control > len(sample) // 20:
+        return "expected a CSV text file, got binary data"
+    return None
+
+
+def read_file(path: Path, display: str, relative: str, ids: IdIndex, keys: KeyIndex) -> list[Submission]:
+    """Read one submission file; never raises for any content.
+
+    Args:
+        path: the file.
+        display: the path to print in messages (``sub/x.csv``).
+        relative: the path below the submissions folder, searched for student ids.
+        ids: the roster ids.
+        keys: the assignment's answer keys.
+
+    Returns:
+        One `Submission` per student the file answers for (several for a class-wide file); an
+        unreadable file gives one with ``readable=False`` and the reason in ``issues``.
+    """
+
+    def fail(message: str, line: int | None = None, fld: str | None = "file") -> list[Submission]:
+        found = ids.from_path(relative)
+        sid = next(iter(found)) if len(found) == 1 else None
+        issue = Issue(display, line, fld, message)
+        return [Submission(display, sid, (), (issue,), readable=False, mtime=mtime)]
+
+    mtime = 0.0
+    try:
+        stat = path.stat()
+        mtime = stat.st_mtime
+        if stat.st_size > MAX_BYTES:
+            return fail(f"expected a small CSV (under 2 MB), got {stat.st_size:,} bytes")
+        data = path.read_bytes()
+    except OSError as exc:
+        return fail(f"expected a readable file, got {exc.strerror or exc}")
+    if not data.strip():
+        return fail(f"expected a CSV with columns {EXPECTED}, got an empty file")
+    text, _ = decode_bytes(data)
+    reason = _binary(data, text)
+    if reason:
+        return fail(reason)
+    delimiter = sniff_delimiter(text)
+    try:
+        rows = _rows(text, delimiter)
+    except csv.Error as exc:
+        return fail(f"expected a CSV file, got unreadable CSV ({exc})")
+    if not rows:
+        return fail(f"expected a CSV with columns {EXPECTED}, got only blank lines")
+    reader = _Layout(display, relative, ids, keys, delimiter, mtime)
+    return reader.read(rows)
+
+
+def _rows(text: str, delimiter: str) -> list[tuple[int, list[str]]]:
+    """Non-blank rows with the line each starts on."""
+    reader = csv.reader(io.StringIO(text, newline=""), delimiter=delimiter, skipinitialspace=True)
+    rows = []
+    start = 1
+    for row in reader:
+        if any(c.strip() for c in row):
+            rows.append((start, [c.strip() for c in row]))
+        start = reader.line_num + 1
+    return rows
+
+
+@dataclass
+class _Draft:
+    """A submission being assembled."""
+
+    answers: dict[str, Answer] = field(default_factory=dict)
+    issues: list[Issue] = field(default_factory=list)
+    claimed: set[str] = field(default_factory=set)
+
+
+class _Layout:
+    """Work out the file's layout (long, wide, headerless) and read its rows."""
+
+    def __init__(
+        self, display: str, relative: str, ids: IdIndex, keys: KeyIndex, delimiter: str, mtime: float
+    ) -> None:
+        self.display = display
+        self.relative = relative
+        self.ids = ids
+        self.keys = keys
+        self.delimiter = delimiter
+        self.mtime = mtime
+
+    def issue(self, line: int | None, fld: str | None, message: str) -> Issue:
+        return Issue(self.display, line, fld, message)
+
+    def read(self, rows: list[tuple[int, list[str]]]) -> list[Submission]:
+        header_line, header_cells = rows[0]
+        header = [header_key(c) for c in header_cells]
+        id_col = _col(header, _ID_COLS)
+        key_col = _col(header, _KEY_COLS)
+        value_col = _col(header, _VALUE_COLS)
+        if key_col is not None and value_col is not None:
+            unit_col = _col(header, _UNIT_COLS)
+            return self._long(rows[1:], id_col, key_col, value_col, unit_col, len(header))
+        wide = {i: self.keys.match(c) for i, c in enumerate(header_cells)}
+        wide = {i: k for i, k in wide.items() if k is not None}
+        if wide:
+            return self._wide(rows[1:], id_col, wide, header_cells)
+        # No header: find the column holding keys in the first row.
+        for i, cell in enumerate(header_cells):
+            if self.keys.match(cell) is not None and i + 1 < len(header_cells):
+                id_pos = i - 1 if i > 0 else None
+                unit_pos = i + 2 if i + 2 < len(header_cells) else None
+                width = max(len(header_cells), 4)
+                return self._long(rows, id_pos, i, i + 1, unit_pos, width)
+        shown = _clip(self.delimiter.join(header_cells), 60)
+        issue = self.issue(header_line, "header", f"expected a header row {EXPECTED}, got {shown!r}")
+        return self._finish({None: _Draft(issues=[issue])}, readable=False)
+
+    def _long(
+        self,
+        rows: list[tuple[int, list[str]]],
+        id_col: int | None,
+        key_col: int,
+        value_col: int,
+        unit_col: int | None,
+        width: int,
+    ) -> list[Submission]:
+        drafts: dict[str | None, _Draft] = {}
+        row_ids: list[tuple[int, str, str | None]] = []  # line, raw id, roster id
+        parsed: list[tuple[int, str | None, Answer | Issue]] = []
+        for line, row in rows:
+            raw_id = row[id_col] if id_col is not None and id_col < len(row) else ""
+            sid = self.ids.match(raw_id) if raw_id else None
+            row_ids.append((line, raw_id, sid))
+            extra = [c for c in row[width:] if c]
+            if extra:
+                hint = ""
+                if self.delimiter == ",":
+                    hint = " (a decimal comma? write 1.12, or use ';' between columns)"
+                msg = f"expected {width} cells, got {len(row)}{hint}"
+                parsed.append((line, sid, self.issue(line, "row", msg)))
+                continue
+            parsed.append((line, sid, self._answer(line, row, key_col, value_col, unit_col)))
+        owners = self._owners(row_ids, drafts)
+        for (line, _sid, item), owner in zip(parsed, owners, strict=True):
+            draft = drafts.setdefault(owner, _Draft())
+            if isinstance(item, Issue):
+                draft.issues.append(item)
+            elif item.key in draft.answers:
+                first = draft.answers[item.key].line
+                draft.issues.append(
+                    self.issue(
+                        line,
+                        "key",
+                        f"expected each key once, got {item.key!r} again "
+                        f"(first on line {first}; this row is ignored)",
+                    )
+                )
+            else:
+                draft.answers[item.key] = item
+        return self._finish(drafts)
+
+    def _owners(
+        self, row_ids: list[tuple[int, str, str | None]], drafts: dict[str | None, _Draft]
+    ) -> list[str | None]:
+        """Decide which student each row belongs to (column first, then the file name)."""
+        known = list(dict.fromkeys(sid for _, _, sid in row_ids if sid))
+        from_name = self.ids.from_path(self.relative)
+        if len(known) >= 2:  # a class-wide long file
+            owners = []
+            for line, raw, sid in row_ids:
+                owners.append(sid)
+                if sid is None:
+                    drafts.setdefault(None, _Draft()).claimed.add(raw)
+                    if not raw:
+                        drafts[None].issues.append(
+                            self.issue(line, "student_id", "expected a student id, got a blank cell")
+                        )
+            return owners
+        owner: str | None
+        if len(known) == 1:
+            owner = known[0]
+            named = from_name - {owner}
+            if named and len(from_name) == 1:
+                drafts.setdefault(owner, _Draft()).issues.append(
+                    self.issue(
+                        None,
+                        "student_id",
+                        f"the file name names student {next(iter(named))!r} but the student_id "
+                        f"column says {owner!r}; graded as {owner!r}",
+                    )
+                )
+        elif len(from_name) == 1:
+            owner = next(iter(from_name))
+        else:
+            owner = None
+            if len(from_name) > 1:
+                names = ", ".join(sorted(from_name))
+                drafts.setdefault(None, _Draft()).issues.append(
+                    self.issue(None, "file", f"expected one student in the file name, got {names}")
+                )
+        draft = drafts.setdefault(owner, _Draft())
+        wrong = [(line, raw) for line, raw, sid in row_ids if raw and (sid is None or sid != owner)]
+        for line, raw in wrong[:3]:
+            draft.claimed.add(raw)
+            if owner is not None:
+                draft.issues.append(
+                    self.issue(
+                        line,
+                        "student_id",
+                        f"expected {owner!r}, got {_clip(raw)!r} (graded as {owner!r})",
+                    )
+                )
+        for _, raw in wrong[3:]:
+            draft.claimed.add(raw)
+        return [owner] * len(row_ids)
+
+    def _answer(
+        self, line: int, row: list[str], key_col: int, value_col: int, unit_col: int | None
+    ) -> Answer | Issue:
+        raw_key = row[key_col] if key_col < len(row) else ""
+        if not raw_key:
+            return self.issue(line, "key", f"expected a key such as {self.keys.sample()}, got a blank cell")
+        key = self.keys.match(raw_key)
+        if key is None:
+            return self.issue(
+                line, "key", f"expected a key such as {self.keys.sample()}, got {_clip(raw_key)!r}"
+            )
+        raw = row[value_col] if value_col < len(row) else ""
+        raw_unit = row[unit_col] if unit_col is not None and unit_col < len(row) else ""
+        return self._cell(key, raw, raw_unit, line)
+
+    def _cell(self, key: str, raw: str, raw_unit: str, line: int) -> Answer:
+        try:
+            number, unit = parse_value(raw, decimal_comma=self.delimiter != ",")
+        except ValueError as exc:
+            return Answer(key, raw, raw_unit, None, "", line, "value", str(exc))
+        return Answer(key, raw, raw_unit, number, unit or raw_unit, line, "value" if unit else "unit")
+
+    def _wide(
+        self,
+        rows: list[tuple[int, list[str]]],
+        id_col: int | None,
+        wide: dict[int, str],
+        header: list[str],
+    ) -> list[Submission]:
+        drafts: dict[str | None, _Draft] = {}
+        from_name = self.ids.from_path(self.relative)
+        class_wide = len(rows) > 1
+        for line, row in rows:
+            raw_id = row[id_col] if id_col is not None and id_col < len(row) else ""
+            sid = self.ids.match(raw_id) if raw_id else None
+            if sid is None and not raw_id and len(rows) == 1 and len(from_name) == 1:
+                sid = next(iter(from_name))
+            if sid is not None and sid in drafts:
+                drafts[sid].issues.append(
+                    self.issue(line, "student_id", f"expected one row per student, got {sid!r} again")
+                )
+                continue
+            draft = drafts.setdefault(sid, _Draft())
+            if sid is None:
+                draft.claimed.add(raw_id)
+                if not raw_id:
+                    draft.issues.append(
+                        self.issue(line, "student_id", "expected a student id, got a blank cell")
+                    )
+                continue
+            for i, key in wide.items():
+                raw = row[i] if i < len(row) else ""
+                draft.answers[key] = replace(self._cell(key, raw, "", line), field=header[i])
+        return self._finish(drafts, class_wide=class_wide)
+
+    def _finish(
+        self, drafts: dict[str | None, _Draft], readable: bool = True, class_wide: bool = False
+    ) -> list[Submission]:
+        return [
+            Submission(
+                path=self.display,
+                student_id=sid,
+                answers=tuple(d.answers.values()),
+                issues=tuple(d.issues),
+                claimed=tuple(sorted(c for c in d.claimed if c)),
+                readable=readable,
+                mtime=self.mtime,
+                class_wide=class_wide or len(drafts) > 1,
+            )
+            for sid, d in drafts.items()
+        ]
