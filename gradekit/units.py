@@ -118,7 +118,9 @@ _PRETTY = [("**2", "²"), ("**3", "³"), ("*", "·"), ("degree", "°")]
 
 
 def pretty(unit: str) -> str:
-    """Display form of a unit string: ``N*mm`` -> ``N·mm``, ``mm/s**2`` -> ``mm/s²``."""
+    """Display form of a unit string: ``N*mm`` -> ``N·mm``, ``mm/s**2`` -> ``mm/s²``, ``deg`` -> ``°``."""
+    if unit.strip() in ("deg", "degree", "degrees"):
+        return "°"
     text = unit
     for a, b in _PRETTY:
         text = text.replace(a, b)

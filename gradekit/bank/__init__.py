@@ -1,0 +1,1 @@
+"""The problem bank: YAML problem definitions, validated into frozen records."""

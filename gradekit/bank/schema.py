@@ -1,0 +1,685 @@
+"""The problem file format, validated field by field into frozen records.
+
+Every mapping is checked for unknown keys (a misspelt ``tolerence:`` is an error, never a silent
+default); every error is collected as ``file:line: field: expected …, got …`` and reported
+together. See ``problem_bank/README.md`` for the format documented field by field.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from gradekit import units
+from gradekit.bank import expr
+from gradekit.bank.yamlfile import LineDict, LineList
+from gradekit.errors import ErrorList, GradekitError, ProblemError
+from gradekit.keys import Tolerance
+from gradekit.mechanics.mechanisms import KINDS
+
+Value = float | str  # a literal number (in the problem's default unit) or a parameter/expression
+
+DIMENSIONS = {
+    "length": "mm", "force": "N", "mass": "kg", "inertia": "kg*mm**2", "torque": "N*mm",
+    "angle": "deg", "angular_velocity": "rad/s", "angular_acceleration": "rad/s**2",
+    "acceleration": "m/s**2",
+}
+ANGLE_PARAMS = {"frame_angle", "slide_angle"}
+SHOW = {"dimensions", "loads", "com", "accelerations", "velocities", "angles", "torque", "labels"}
+METHODS = ("analytical", "graphical")
+ANALYSES = ("static", "dynamic")
+_ID = re.compile(r"^[a-z0-9][a-z0-9_-]*$")
+_RESULT = re.compile(
+    r"^(driver|transmission|(F|M)\[[^,\]]+,[^\]]+\]|(aG|vG|Fi|a|v)\[[^\]]+\]|(alpha|omega|theta|Ci|h)\[[^\]]+\])"
+    r"(@[^.]+)?(\.(x|y|mag|angle))?$"
+)
+
+
+@dataclass(frozen=True)
+class Parameter:
+    """A named value: fixed (``value``) or drawn per student (``range``/``choices``) or derived (``expr``)."""
+
+    name: str
+    unit: str
+    value: float | None = None
+    low: float | None = None
+    high: float | None = None
+    step: float | None = None
+    sigfigs: int | None = None
+    choices: tuple[float, ...] = ()
+    expr: str | None = None
+    symbol: str = ""
+    description: str = ""
+    decimals: int | None = None
+
+    @property
+    def random(self) -> bool:
+        return self.low is not None or bool(self.choices)
+
+
+@dataclass(frozen=True)
+class LoadSpec:
+    name: str
+    body: str
+    at: str = ""
+    along: Value = 0.0
+    across: Value = 0.0
+    magnitude: Value | None = None
+    angle: Value | None = None
+    relative_angle: bool = False
+    fx: Value | None = None
+    fy: Value | None = None
+    torque: Value | None = None
+
+
+@dataclass(frozen=True)
+class MassSpec:
+    body: str
+    mass: Value | None = None
+    weight: Value | None = None
+    inertia: Value = 0.0
+    at: str = ""
+    along: Value = 0.0
+    across: Value = 0.0
+
+
+@dataclass(frozen=True)
+class AnswerSpec:
+    key: str
+    of: str
+    unit: str
+    description: str
+    sign: str = ""
+    points: float = 1.0
+    tolerance: Tolerance = Tolerance()
+    case: str | None = None
+
+
+@dataclass(frozen=True)
+class Published:
+    """A value printed in the source, with the precision it was printed to."""
+
+    key: str
+    value: float
+    unit: str
+    rel: float
+    note: str = ""
+
+
+@dataclass(frozen=True)
+class Constraints:
+    transmission_min: float = 0.0
+    condition_max: float = 1e4
+    grashof: str | None = None
+    dead_centre_min: float = 0.0
+    answer_min_fraction: float = 0.0
+    require: tuple[tuple[str, str], ...] = ()
+
+
+@dataclass(frozen=True)
+class Figure:
+    show: tuple[str, ...] = ("dimensions", "loads", "labels", "angles")
+    true_scale: float | None = None  # paper length per mechanism length (e.g. 0.5 = 1:2)
+    force_scale: str = ""
+
+
+@dataclass(frozen=True)
+class Problem:
+    """One validated bank problem."""
+
+    id: str
+    title: str
+    source: dict[str, str]
+    tags: tuple[str, ...]
+    method: str
+    analysis: str
+    units: dict[str, str]
+    kind: str
+    branch: int
+    driver: str
+    labels: dict[str, str]
+    point_names: dict[str, str]
+    geometry: dict[str, Value]
+    inputs: dict[str, Value]
+    parameters: dict[str, Parameter]
+    loads: tuple[LoadSpec, ...]
+    mass: tuple[MassSpec, ...]
+    gravity: dict[str, Value] | None
+    weight_g: Value | None
+    constraints: Constraints
+    cases: dict[str, dict[str, float]]
+    statement: str
+    answers: tuple[AnswerSpec, ...]
+    published: tuple[Published, ...]
+    figure: Figure
+    notes: str
+    path: str = ""
+    lines: dict[str, int] = field(default_factory=dict, compare=False)
+
+    def label(self, body: str) -> str:
+        return self.labels.get(body, body)
+
+    def point(self, name: str) -> str:
+        return self.point_names.get(name, name)
+
+
+class _Collector:
+    """Collects validation errors with their lines."""
+
+    def __init__(self, path: str) -> None:
+        self.path = path
+        self.errors: list[GradekitError] = []
+
+    def err(self, node: Any, key: Any, fieldname: str, message: str) -> None:
+        line = None
+        if isinstance(node, LineDict):
+            line = node.lines.get(key, node.line)
+        elif isinstance(node, LineList) and isinstance(key, int) and key < len(node.lines):
+            line = node.lines[key]
+        elif isinstance(node, (LineDict, LineList)):
+            line = node.line
+        self.errors.append(ProblemError(message, path=self.path, line=line, field=fieldname))
+
+    def mapping(self, node: Any, where: str, required: tuple[str, ...], optional: tuple[str, ...],
+                parent: Any = None, key: Any = None) -> LineDict | None:
+        if not isinstance(node, dict):
+            self.err(parent, key, where, f"expected a mapping, got {_show(node)}")
+            return None
+        for k in node:
+            if k not in required and k not in optional:
+                allowed = ", ".join(sorted(required + optional))
+                self.err(node, k, f"{where}.{k}" if where else str(k), f"expected one of {allowed}; got unknown key {k!r}")
+        for k in required:
+            if k not in node:
+                self.err(node, None, f"{where}.{k}" if where else k, "expected this field, got nothing")
+        return node
+
+    def text(self, node: dict, key: str, where: str, default: str | None = None) -> str:
+        v = node.get(key, default)
+        if not isinstance(v, str):
+            self.err(node, key, where, f"expected text, got {_show(v)}")
+            return default or ""
+        return v
+
+    def number(self, node: dict, key: str, where: str, default: float | None = None,
+               positive: bool = False) -> float | None:
+        v = node.get(key, default)
+        if v is None:
+            return None
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+            self.err(node, key, where, f"expected a number, got {_show(v)}")
+            return default
+        if positive and v <= 0:
+            self.err(node, key, where, f"expected a number greater than 0, got {v}")
+        return float(v)
+
+    def choice(self, node: dict, key: str, where: str, options: tuple[str, ...], default: str) -> str:
+        v = node.get(key, default)
+        if v not in options:
+            self.err(node, key, where, f"expected one of {', '.join(options)}; got {_show(v)}")
+            return default
+        return v
+
+    def unit(self, node: dict, key: str, where: str, default: str | None = None) -> str:
+        v = node.get(key, default)
+        if not isinstance(v, str):
+            self.err(node, key, where, f"expected a unit such as mm or N*m, got {_show(v)}")
+            return default or ""
+        try:
+            units.check(v)
+        except GradekitError as exc:
+            self.err(node, key, where, exc.detail)
+        return v
+
+
+def _show(v: Any) -> str:
+    if v is None:
+        return "nothing"
+    text = repr(v)
+    return text if len(text) < 60 else text[:57] + "..."
+
+
+def _value(c: _Collector, node: dict, key: str, where: str, names: set[str],
+           default: Value | None = None) -> Value | None:
+    """A field that is a number, a parameter name or an expression over parameters."""
+    v = node.get(key, default)
+    if v is None:
+        return None
+    if isinstance(v, bool):
+        c.err(node, key, where, f"expected a number or parameter expression, got {v!r}")
+        return default
+    if isinstance(v, (int, float)):
+        return float(v)
+    if isinstance(v, str):
+        try:
+            unknown = expr.names(v) - names
+        except expr.ExprError as exc:
+            c.err(node, key, where, str(exc))
+            return default
+        if unknown:
+            c.err(node, key, where, f"expected parameters among {', '.join(sorted(names))}; "
+                                    f"got unknown name(s) {', '.join(sorted(unknown))}")
+        return v
+    c.err(node, key, where, f"expected a number or parameter expression, got {_show(v)}")
+    return default
+
+
+def _parameters(c: _Collector, node: Any, parent: dict) -> dict[str, Parameter]:
+    out: dict[str, Parameter] = {}
+    if not isinstance(node, dict):
+        c.err(parent, "parameters", "parameters", f"expected a mapping of name: definition, got {_show(node)}")
+        return out
+    for name, spec in node.items():
+        w = f"parameters.{name}"
+        if not re.match(r"^[A-Za-z_][A-Za-z0-9_]*$", str(name)) or name in expr.FUNCTIONS or name == "pi":
+            c.err(node, name, w, f"expected a name of letters, digits and _ (not a function), got {name!r}")
+            continue
+        if isinstance(spec, (int, float)) and not isinstance(spec, bool):
+            c.err(node, name, w, "expected a mapping with value and unit, got a bare number")
+            continue
+        m = c.mapping(spec, w, ("unit",), ("value", "range", "step", "sigfigs", "choices", "expr",
+                                          "symbol", "description", "decimals"), node, name)
+        if m is None:
+            continue
+        unit = c.unit(m, "unit", f"{w}.unit")
+        value = c.number(m, "value", f"{w}.value")
+        low = high = None
+        if "range" in m:
+            r = m["range"]
+            if (not isinstance(r, list) or len(r) != 2
+                    or not all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in r)):
+                c.err(m, "range", f"{w}.range", f"expected [min, max], got {_show(r)}")
+            elif not r[1] > r[0]:
+                c.err(m, "range", f"{w}.range", f"expected max greater than min ({r[0]}), got {r[1]}")
+            else:
+                low, high = float(r[0]), float(r[1])
+        step = c.number(m, "step", f"{w}.step", positive=True)
+        sig = m.get("sigfigs")
+        if sig is not None and (not isinstance(sig, int) or isinstance(sig, bool) or not 1 <= sig <= 8):
+            c.err(m, "sigfigs", f"{w}.sigfigs", f"expected a whole number from 1 to 8, got {_show(sig)}")
+            sig = None
+        choices: tuple[float, ...] = ()
+        if "choices" in m:
+            ch = m["choices"]
+            if (not isinstance(ch, list) or not ch
+                    or not all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in ch)):
+                c.err(m, "choices", f"{w}.choices", f"expected a list of numbers, got {_show(ch)}")
+            else:
+                choices = tuple(float(x) for x in ch)
+        ex = m.get("expr")
+        if ex is not None:
+            if not isinstance(ex, str):
+                c.err(m, "expr", f"{w}.expr", f"expected an expression, got {_show(ex)}")
+                ex = None
+            else:
+                try:
+                    expr.parse(ex)
+                except expr.ExprError as exc:
+                    c.err(m, "expr", f"{w}.expr", str(exc))
+                    ex = None
+        kinds = sum(x is not None and x != () for x in (low, choices or None, ex))
+        if kinds > 1:
+            c.err(m, None, w, "expected only one of range, choices or expr")
+        if low is not None and step is None and sig is None:
+            c.err(m, "range", w, "expected step or sigfigs with range (values are rounded as printed)")
+        if ex is None and value is None:
+            c.err(m, None, f"{w}.value", "expected the published (fixed) value, got nothing")
+        if value is not None and low is not None and not low <= value <= high:
+            c.err(m, "value", f"{w}.value", f"expected the published value inside range [{low}, {high}], got {value}")
+        dec = m.get("decimals")
+        if dec is not None and (not isinstance(dec, int) or isinstance(dec, bool) or not 0 <= dec <= 8):
+            c.err(m, "decimals", f"{w}.decimals", f"expected a whole number from 0 to 8, got {_show(dec)}")
+            dec = None
+        out[name] = Parameter(name, unit, value, low, high, step, sig, choices, ex,
+                              str(m.get("symbol", "")), str(m.get("description", "")), dec)
+    # derived parameters may only refer to defined names, without cycles
+    for p in out.values():
+        if p.expr:
+            unknown = expr.names(p.expr) - set(out)
+            if unknown:
+                c.err(node[p.name], "expr", f"parameters.{p.name}.expr",
+                      f"expected parameters among {', '.join(sorted(out))}; got unknown {', '.join(sorted(unknown))}")
+    try:
+        order(out)
+    except ValueError as exc:
+        c.err(node, None, "parameters", str(exc))
+    return out
+
+
+def order(params: dict[str, Parameter]) -> list[str]:
+    """Parameter names with every derived one after what it depends on; ValueError on a cycle."""
+    done: list[str] = []
+    seen: set[str] = set()
+
+    def visit(n: str, stack: tuple[str, ...]) -> None:
+        if n in seen:
+            return
+        if n in stack:
+            raise ValueError(f"expected derived parameters without cycles, got {' -> '.join(stack + (n,))}")
+        p = params.get(n)
+        if p and p.expr:
+            for dep in sorted(expr.names(p.expr) & set(params)):
+                visit(dep, stack + (n,))
+        seen.add(n)
+        done.append(n)
+
+    for n in params:
+        visit(n, ())
+    return done
+
+
+def _tolerance(c: _Collector, node: Any, where: str, default: Tolerance, parent: dict) -> Tolerance:
+    if node is None:
+        return default
+    m = c.mapping(node, where, (), ("mode", "rel", "abs", "sigfigs"), parent, "tolerance")
+    if m is None:
+        return default
+    mode = c.choice(m, "mode", f"{where}.mode", ("relative", "sigfigs"), default.mode)
+    rel = c.number(m, "rel", f"{where}.rel", default.rel)
+    ab = c.number(m, "abs", f"{where}.abs", default.abs)
+    sig = m.get("sigfigs", default.sigfigs)
+    if not isinstance(sig, int) or isinstance(sig, bool) or not 1 <= sig <= 8:
+        c.err(m, "sigfigs", f"{where}.sigfigs", f"expected a whole number from 1 to 8, got {_show(sig)}")
+        sig = default.sigfigs
+    if rel is not None and not 0 <= rel < 1:
+        c.err(m, "rel", f"{where}.rel", f"expected a fraction from 0 to 1 (0.01 = 1 %), got {rel}")
+    if ab is not None and ab < 0:
+        c.err(m, "abs", f"{where}.abs", f"expected a number of at least 0, got {ab}")
+    return Tolerance(mode, rel or 0.0, ab or 0.0, sig)
+
+
+DEFAULT_TOLERANCE = {"analytical": Tolerance("relative", 0.01, 0.0), "graphical": Tolerance("relative", 0.03, 0.0)}
+
+TOP_REQUIRED = ("id", "title", "source", "method", "analysis", "mechanism", "parameters", "statement", "answers")
+TOP_OPTIONAL = ("tags", "units", "loads", "mass", "gravity", "weight_g", "constraints", "cases",
+                "published", "figure", "notes")
+
+
+def validate(data: dict, path: str) -> Problem:
+    """Validate one problem mapping (from `yamlfile.load`); raise `ErrorList` with every error."""
+    c = _Collector(path)
+    top = c.mapping(data, "", TOP_REQUIRED, TOP_OPTIONAL)
+    if top is None:
+        raise ErrorList(c.errors)
+    pid = data.get("id")
+    if not isinstance(pid, str) or not _ID.match(pid):
+        c.err(data, "id", "id", f"expected lower-case letters, digits, _ and -, got {_show(pid)}")
+        pid = str(pid)
+    title = c.text(data, "title", "title", "")
+    src = c.mapping(data.get("source"), "source", ("document", "ref"), ("seed", "note"), data, "source") or {}
+    source = {k: str(v) for k, v in src.items()}
+    tags = data.get("tags", [])
+    if not isinstance(tags, list) or not all(isinstance(t, str) for t in tags):
+        c.err(data, "tags", "tags", f"expected a list of words, got {_show(tags)}")
+        tags = []
+    method = c.choice(data, "method", "method", METHODS, "analytical")
+    analysis = c.choice(data, "analysis", "analysis", ANALYSES, "static")
+    unit_node = c.mapping(data.get("units", {}), "units", (), tuple(DIMENSIONS), data, "units") or {}
+    dims = dict(DIMENSIONS)
+    for k in unit_node:
+        if k in DIMENSIONS:
+            dims[k] = c.unit(unit_node, k, f"units.{k}")
+
+    params = _parameters(c, data.get("parameters"), data)
+    names = set(params)
+
+    mech = c.mapping(data.get("mechanism"), "mechanism", ("type", "geometry", "input"),
+                     ("branch", "driver", "labels", "points"), data, "mechanism") or LineDict()
+    kind = mech.get("type")
+    spec = KINDS.get(kind) if isinstance(kind, str) else None
+    if spec is None:
+        c.err(mech, "type", "mechanism.type", f"expected one of {', '.join(KINDS)}; got {_show(kind)}")
+    br = mech.get("branch", "open")
+    branch = {"open": 1, "crossed": -1, 1: 1, -1: -1}.get(br) if not isinstance(br, bool) else None
+    if branch is None:
+        c.err(mech, "branch", "mechanism.branch", f"expected open, crossed, 1 or -1; got {_show(br)}")
+        branch = 1
+    drivers = spec.drivers if spec else ("crank",)
+    driver = c.choice(mech, "driver", "mechanism.driver", drivers, "crank")
+    bodies = ("ground",) + (spec.bodies if spec else ())
+    labels = _names_map(c, mech, "labels", bodies)
+    point_names = _names_map(c, mech, "points", spec.points if spec else ())
+    geometry: dict[str, Value] = {}
+    g = c.mapping(mech.get("geometry"), "mechanism.geometry",
+                  spec.required if spec else (), tuple(spec.optional) if spec else (), mech, "geometry")
+    for k in (g or {}):
+        v = _value(c, g, k, f"mechanism.geometry.{k}", names)
+        if v is not None:
+            geometry[k] = v
+    inp = c.mapping(mech.get("input"), "mechanism.input", ("theta",), ("omega", "alpha"), mech, "input") or {}
+    inputs = {k: v for k in inp if (v := _value(c, inp, k, f"mechanism.input.{k}", names)) is not None}
+    if analysis == "dynamic" and "omega" not in inputs:
+        c.err(inp, None, "mechanism.input.omega", "expected the crank speed for a dynamic analysis, got nothing")
+
+    body_names = set(spec.bodies) if spec else set()
+    point_set = set(spec.points) if spec else set()
+    loads = _loads(c, data, names, body_names, point_set)
+    mass = _mass(c, data, names, body_names, point_set)
+    gravity = None
+    if "gravity" in data:
+        gm = c.mapping(data["gravity"], "gravity", ("g",), ("angle",), data, "gravity") or {}
+        gravity = {k: v for k in gm if (v := _value(c, gm, k, f"gravity.{k}", names)) is not None}
+        gravity.setdefault("angle", -90.0)
+    weight_g = _value(c, data, "weight_g", "weight_g", names) if "weight_g" in data else None
+    if any(m.weight is not None for m in mass) and weight_g is None and gravity is None:
+        c.err(data, "mass", "weight_g", "expected weight_g (or gravity) to turn weights into masses, got nothing")
+
+    constraints = _constraints(c, data, names)
+    cases = _cases(c, data, names)
+    statement = c.text(data, "statement", "statement", "")
+    answers = _answers(c, data, method, cases)
+    published = _published(c, data, {a.key for a in answers}, cases)
+    figure = _figure(c, data)
+    notes = data.get("notes", "")
+    if not isinstance(notes, str):
+        c.err(data, "notes", "notes", f"expected text, got {_show(notes)}")
+        notes = ""
+    if c.errors:
+        raise ErrorList(c.errors)
+    lines = {k: data.lines.get(k, 0) for k in data} if isinstance(data, LineDict) else {}
+    return Problem(pid, title, source, tuple(tags), method, analysis, dims, kind, branch, driver,
+                   labels, point_names, geometry, inputs, params, loads, mass, gravity, weight_g,
+                   constraints, cases, statement, answers, published, figure, notes, path, lines)
+
+
+def _names_map(c: _Collector, mech: dict, key: str, allowed: tuple[str, ...]) -> dict[str, str]:
+    node = mech.get(key, {})
+    m = c.mapping(node, f"mechanism.{key}", (), allowed, mech, key) or {}
+    return {k: str(v) for k, v in m.items()}
+
+
+def _loads(c: _Collector, data: dict, names: set[str], bodies: set[str], points: set[str]) -> tuple[LoadSpec, ...]:
+    node = data.get("loads", [])
+    if not isinstance(node, list):
+        c.err(data, "loads", "loads", f"expected a list of loads, got {_show(node)}")
+        return ()
+    out = []
+    seen: set[str] = set()
+    for i, item in enumerate(node):
+        w = f"loads[{i}]"
+        m = c.mapping(item, w, ("name", "body"), ("at", "along", "across", "magnitude", "angle",
+                                                 "relative_angle", "fx", "fy", "torque"), node, i)
+        if m is None:
+            continue
+        name = c.text(m, "name", f"{w}.name", "")
+        if name in seen:
+            c.err(m, "name", f"{w}.name", f"expected a unique load name, got {name!r} twice")
+        seen.add(name)
+        body = m.get("body")
+        if body not in bodies:
+            c.err(m, "body", f"{w}.body", f"expected one of {', '.join(sorted(bodies))}; got {_show(body)}")
+        at = m.get("at", "")
+        if at and at not in points:
+            c.err(m, "at", f"{w}.at", f"expected a point among {', '.join(sorted(points))}; got {_show(at)}")
+        vals = {k: _value(c, m, k, f"{w}.{k}", names) for k in
+                ("along", "across", "magnitude", "angle", "fx", "fy", "torque")}
+        has_polar = vals["magnitude"] is not None
+        has_xy = vals["fx"] is not None or vals["fy"] is not None
+        if has_polar and has_xy:
+            c.err(m, "magnitude", w, "expected magnitude and angle, or fx and fy, not both")
+        if has_polar and vals["angle"] is None:
+            c.err(m, "magnitude", f"{w}.angle", "expected the direction angle with magnitude, got nothing")
+        if not (has_polar or has_xy or vals["torque"] is not None):
+            c.err(m, None, w, "expected a force (magnitude+angle or fx/fy) or a torque, got neither")
+        rel = m.get("relative_angle", False)
+        if not isinstance(rel, bool):
+            c.err(m, "relative_angle", f"{w}.relative_angle", f"expected true or false, got {_show(rel)}")
+            rel = False
+        out.append(LoadSpec(name, str(body), str(at), vals["along"] or 0.0, vals["across"] or 0.0,
+                            vals["magnitude"], vals["angle"], rel, vals["fx"], vals["fy"], vals["torque"]))
+    return tuple(out)
+
+
+def _mass(c: _Collector, data: dict, names: set[str], bodies: set[str], points: set[str]) -> tuple[MassSpec, ...]:
+    node = data.get("mass", {})
+    m0 = c.mapping(node, "mass", (), tuple(sorted(bodies)), data, "mass")
+    out = []
+    for body, spec in (m0 or {}).items():
+        w = f"mass.{body}"
+        m = c.mapping(spec, w, (), ("mass", "weight", "inertia", "at", "along", "across"), m0, body)
+        if m is None:
+            continue
+        vals = {k: _value(c, m, k, f"{w}.{k}", names) for k in ("mass", "weight", "inertia", "along", "across")}
+        if (vals["mass"] is None) == (vals["weight"] is None):
+            c.err(m, None, w, "expected exactly one of mass or weight")
+        at = m.get("at", "")
+        if at and at not in points:
+            c.err(m, "at", f"{w}.at", f"expected a point among {', '.join(sorted(points))}; got {_show(at)}")
+        out.append(MassSpec(body, vals["mass"], vals["weight"], vals["inertia"] or 0.0, str(at),
+                            vals["along"] or 0.0, vals["across"] or 0.0))
+    return tuple(out)
+
+
+def _constraints(c: _Collector, data: dict, names: set[str]) -> Constraints:
+    node = data.get("constraints", {})
+    m = c.mapping(node, "constraints", (), ("transmission_min", "condition_max", "grashof",
+                                            "dead_centre_min", "answer_min_fraction", "require"),
+                  data, "constraints") or {}
+    req = []
+    for i, item in enumerate(m.get("require", []) or []):
+        r = c.mapping(item, f"constraints.require[{i}]", ("expr", "message"), (), m.get("require"), i)
+        if r is None:
+            continue
+        e = r.get("expr")
+        try:
+            unknown = expr.names(e) - names if isinstance(e, str) else {"<not text>"}
+            if unknown:
+                c.err(r, "expr", f"constraints.require[{i}].expr", f"expected parameter names, got unknown {sorted(unknown)}")
+        except expr.ExprError as exc:
+            c.err(r, "expr", f"constraints.require[{i}].expr", str(exc))
+        req.append((str(e), str(r.get("message", ""))))
+    grashof = m.get("grashof")
+    if grashof is not None and grashof not in ("crank-rocker", "double-crank", "grashof", "non-grashof"):
+        c.err(m, "grashof", "constraints.grashof",
+              f"expected crank-rocker, double-crank, grashof or non-grashof; got {_show(grashof)}")
+    return Constraints(
+        c.number(m, "transmission_min", "constraints.transmission_min", 0.0) or 0.0,
+        c.number(m, "condition_max", "constraints.condition_max", 1e4, positive=True) or 1e4,
+        grashof,
+        c.number(m, "dead_centre_min", "constraints.dead_centre_min", 0.0) or 0.0,
+        c.number(m, "answer_min_fraction", "constraints.answer_min_fraction", 0.0) or 0.0,
+        tuple(req),
+    )
+
+
+def _cases(c: _Collector, data: dict, names: set[str]) -> dict[str, dict[str, float]]:
+    node = data.get("cases")
+    if node is None:
+        return {}
+    if not isinstance(node, dict) or not node:
+        c.err(data, "cases", "cases", f"expected a mapping of case name: parameter overrides, got {_show(node)}")
+        return {}
+    out = {}
+    for name, over in node.items():
+        if not isinstance(over, dict):
+            c.err(node, name, f"cases.{name}", f"expected a mapping of parameter: value, got {_show(over)}")
+            continue
+        vals = {}
+        for k in over:
+            if k not in names:
+                c.err(over, k, f"cases.{name}.{k}", f"expected a parameter name, got {k!r}")
+            v = c.number(over, k, f"cases.{name}.{k}")
+            if v is not None:
+                vals[k] = v
+        out[str(name)] = vals
+    return out
+
+
+def _answers(c: _Collector, data: dict, method: str, cases: dict) -> tuple[AnswerSpec, ...]:
+    node = data.get("answers")
+    if not isinstance(node, list) or not node:
+        c.err(data, "answers", "answers", f"expected a list of answers, got {_show(node)}")
+        return ()
+    out = []
+    keys: set[str] = set()
+    for i, item in enumerate(node):
+        w = f"answers[{i}]"
+        m = c.mapping(item, w, ("key", "of", "unit", "description"),
+                      ("sign", "points", "tolerance", "case"), node, i)
+        if m is None:
+            continue
+        key = m.get("key")
+        if not isinstance(key, str) or not re.match(r"^[A-Za-z][A-Za-z0-9_]*$", key):
+            c.err(m, "key", f"{w}.key", f"expected a name of letters, digits and _, got {_show(key)}")
+            key = f"answer{i}"
+        if key in keys:
+            c.err(m, "key", f"{w}.key", f"expected a unique key, got {key!r} twice")
+        keys.add(key)
+        of = m.get("of")
+        if not isinstance(of, str) or not _RESULT.match(of):
+            c.err(m, "of", f"{w}.of", "expected a result such as driver, F[3,2].mag, aG[2].angle, "
+                                      f"h[3], driver@P; got {_show(of)}")
+        unit = c.unit(m, "unit", f"{w}.unit")
+        case = m.get("case")
+        if case is not None and str(case) not in cases:
+            c.err(m, "case", f"{w}.case", f"expected one of the cases {', '.join(cases) or '(none defined)'}; got {_show(case)}")
+        pts = c.number(m, "points", f"{w}.points", 1.0)
+        if pts is not None and pts < 0:
+            c.err(m, "points", f"{w}.points", f"expected a number of at least 0, got {pts}")
+        tol = _tolerance(c, m.get("tolerance"), f"{w}.tolerance", DEFAULT_TOLERANCE[method], m)
+        out.append(AnswerSpec(key, str(of), unit, c.text(m, "description", f"{w}.description", ""),
+                              str(m.get("sign", "")), pts or 0.0, tol, None if case is None else str(case)))
+    return tuple(out)
+
+
+def _published(c: _Collector, data: dict, keys: set[str], cases: dict) -> tuple[Published, ...]:
+    node = data.get("published")
+    if node is None:
+        return ()
+    m = c.mapping(node, "published", (), ("answers", "note"), data, "published") or {}
+    ans = m.get("answers", {})
+    am = c.mapping(ans, "published.answers", (), tuple(sorted(keys)), m, "answers") or {}
+    out = []
+    for k, spec in am.items():
+        w = f"published.answers.{k}"
+        s = c.mapping(spec, w, ("value", "unit", "rel"), ("note",), am, k)
+        if s is None:
+            continue
+        v = c.number(s, "value", f"{w}.value")
+        unit = c.unit(s, "unit", f"{w}.unit")
+        rel = c.number(s, "rel", f"{w}.rel", positive=True)
+        out.append(Published(k, v or 0.0, unit, rel or 0.0, str(s.get("note", ""))))
+    return tuple(out)
+
+
+def _figure(c: _Collector, data: dict) -> Figure:
+    node = data.get("figure")
+    if node is None:
+        return Figure()
+    m = c.mapping(node, "figure", (), ("show", "true_scale", "force_scale"), data, "figure") or {}
+    show = m.get("show", list(Figure.show))
+    if not isinstance(show, list) or not all(s in SHOW for s in show):
+        c.err(m, "show", "figure.show", f"expected a list among {', '.join(sorted(SHOW))}; got {_show(show)}")
+        show = list(Figure.show)
+    scale = c.number(m, "true_scale", "figure.true_scale", positive=True)
+    return Figure(tuple(show), scale, str(m.get("force_scale", "")))
+
+
+def load_problem(path: Path | str) -> Problem:
+    """Load and validate one problem file."""
+    from gradekit.bank.yamlfile import load
+
+    return validate(load(path), str(path))

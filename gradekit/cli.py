@@ -1,0 +1,114 @@
+"""The command line: parse options, call one function per command. Only this module imports click."""
+
+from __future__ import annotations
+
+import json
+import logging
+import sys
+
+import click
+
+from gradekit import __version__
+
+log = logging.getLogger("gradekit")
+
+
+@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+@click.version_option(__version__, prog_name="gradekit")
+@click.option("-v", "--verbose", count=True, help="More output.")
+@click.option("-q", "--quiet", is_flag=True, help="Only errors.")
+def main(verbose: int, quiet: bool) -> None:
+    """gradekit: individual-value force-analysis assignments, keys and grading (MEG373)."""
+    level = logging.ERROR if quiet else logging.DEBUG if verbose else logging.INFO
+    logging.basicConfig(level=level, format="%(message)s", stream=sys.stderr)
+
+
+def _variant(problem, published: bool, student: str | None, seed: int | None, course: str, salt: str):
+    from gradekit.sampling import variant
+
+    if sum(x is not None and x is not False for x in (student, seed)) + bool(published) > 1:
+        raise click.UsageError("give at most one of --published, --student and --seed")
+    return variant(problem, course=course, salt=salt, student=student, seed=seed)
+
+
+_bank_opt = click.option("--bank", type=click.Path(file_okay=False), default=None,
+                         help="Problem bank folder (default: the bundled problem_bank).")
+
+
+@main.command()
+@click.argument("problem")
+@click.option("--published", is_flag=True, help="The values printed in the source (default).")
+@click.option("--student", default=None, help="That student's individual values.")
+@click.option("--seed", type=int, default=None, help="Values drawn from this seed.")
+@click.option("--course", default="MEG373", show_default=True, help="Course name (part of the seed).")
+@click.option("--salt", default="", help="Assignment salt (part of the seed).")
+@click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
+@_bank_opt
+def solve(problem: str, published: bool, student: str | None, seed: int | None, course: str,
+          salt: str, as_json: bool, bank: str | None) -> None:
+    """Solve PROBLEM (a bank id or a YAML path) and print parameters, intermediate values and answers."""
+    from gradekit import report
+    from gradekit.bank.registry import resolve
+
+    v = _variant(resolve(problem, bank), published, student, seed, course, salt)
+    if as_json:
+        click.echo(json.dumps(report.as_json(v.result), indent=2))
+    else:
+        click.echo(report.as_text(v.result))
+
+
+@main.group()
+def bank() -> None:
+    """List, show and stress-test the problem bank."""
+
+
+@bank.command("list")
+@click.option("--json", "as_json", is_flag=True, help="Print a JSON list.")
+@_bank_opt
+def bank_list(as_json: bool, bank: str | None) -> None:
+    """List the bank's problems."""
+    from gradekit.bank.registry import load_bank
+
+    rows = [{"id": p.id, "title": p.title, "source": p.source, "mechanism": p.kind, "method": p.method,
+             "analysis": p.analysis, "tags": list(p.tags), "answers": [a.key for a in p.answers],
+             "random_parameters": [n for n, q in p.parameters.items() if q.random]}
+            for p in load_bank(bank).values()]
+    if as_json:
+        click.echo(json.dumps(rows, indent=2))
+        return
+    for r in rows:
+        click.echo(f"{r['id']:<34} {r['mechanism']:<20} {r['analysis']:<8} {r['method']:<10} {r['title']}")
+
+
+@bank.command("show")
+@click.argument("problem")
+@click.option("--student", default=None, help="Render that student's variant.")
+@click.option("--course", default="MEG373", show_default=True)
+@click.option("--salt", default="")
+@_bank_opt
+def bank_show(problem: str, student: str | None, course: str, salt: str, bank: str | None) -> None:
+    """Show a problem's statement with the published or a student's values, and its answers."""
+    from gradekit import report
+    from gradekit.bank.registry import resolve
+    from gradekit.statement import render_statement
+
+    v = _variant(resolve(problem, bank), False, student, None, course, salt)
+    click.echo(render_statement(v.problem, v.values))
+    click.echo()
+    click.echo(report.as_text(v.result))
+
+
+@bank.command("check")
+@click.argument("ids", nargs=-1)
+@click.option("--variants", type=click.IntRange(1, 100000), default=100, show_default=True,
+              help="Variants drawn per problem.")
+@click.option("--class-size", type=click.IntRange(1, 100000), default=300, show_default=True,
+              help="Class size for the distinct-variant count.")
+@_bank_opt
+def bank_check(ids: tuple[str, ...], variants: int, class_size: int, bank: str | None) -> None:
+    """Stress-test problems: every variant assembles, solves, checks and grades its own key."""
+    from gradekit.bank.check import check_bank
+
+    ok = check_bank(ids, variants, class_size, bank, echo=click.echo)
+    if not ok:
+        sys.exit(1)

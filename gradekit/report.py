@@ -1,0 +1,112 @@
+"""What `gradekit solve` and `bank show` report: parameters, intermediate values, answers, checks."""
+
+from __future__ import annotations
+
+import math
+
+from gradekit import units
+from gradekit.pipeline import Result
+
+# SI unit of a flat result -> the problem's display dimension
+_DISPLAY = {"N": "force", "N*m": "torque", "m": "length", "deg": None, "rad/s": None,
+            "rad/s**2": None, "m/s**2": "accel", "m/s": "speed"}
+
+
+def display_unit(problem, si_unit: str) -> str:
+    dim = _DISPLAY.get(si_unit)
+    if dim is None:
+        return si_unit
+    if dim == "accel":
+        return f"{problem.units['length']}/s**2"
+    if dim == "speed":
+        return f"{problem.units['length']}/s"
+    return problem.units[dim]
+
+
+def fmt(value: float, sig: int = 5) -> str:
+    """The one number formatter shared by reports, documents and feedback.
+
+    Rounds to *sig* significant figures and prints without exponent or trailing zeros
+    (``235150``, ``1.1184``, ``-0.0043``); ``-0`` prints as ``0``.
+    """
+    if not math.isfinite(value):
+        return str(value)
+    if value == 0:
+        return "0"
+    digits = sig - 1 - int(math.floor(math.log10(abs(value))))
+    rounded = round(value, digits)
+    text = f"{rounded:.{max(digits, 0)}f}"
+    if "." in text:
+        text = text.rstrip("0").rstrip(".")
+    return "0" if float(text) == 0 else text
+
+
+def intermediate(result: Result) -> dict:
+    """Selected intermediate values per case, in the problem's display units."""
+    p = result.problem
+    out = {}
+    dynamic = p.analysis == "dynamic"
+    for case in result.cases:
+        res = case.results
+        sel = {}
+        for key, (v, u) in res.items():
+            base = key.split(".")[0]
+            if "@" in key and not key.startswith(("driver@",)) and not key.endswith(".mag"):
+                continue
+            if key.startswith(("v[", "a[", "vG[")):
+                continue
+            if key.startswith(("aG[", "alpha[", "omega[", "Fi[", "Ci[", "h[")) and not dynamic:
+                continue
+            if key.startswith(("F[", "aG[", "Fi[")) and not (key.endswith((".mag", ".angle")) or key.endswith((".x", ".y"))):
+                continue
+            if key.startswith("F[") and _reverse_seen(base, sel):
+                continue
+            du = display_unit(p, u)
+            sel[key] = {"value": units.convert(v, u, du) if du != u else v, "unit": du}
+        out[case.name or "_"] = sel
+    return out
+
+
+def _reverse_seen(base: str, sel: dict) -> bool:
+    inside = base[2:].split("]")[0]
+    a, b = inside.split(",")
+    rest = base.split("]", 1)[1]
+    rev = f"F[{b},{a}]{rest}"
+    return any(k.startswith(rev + ".") for k in sel)
+
+
+def as_json(result: Result) -> dict:
+    p = result.problem
+    return {
+        "problem": p.id,
+        "title": p.title,
+        "source": p.source,
+        "parameters": {n: {"value": v, "unit": p.parameters[n].unit} for n, v in result.values.items()},
+        "answers": {a.key: {"value": a.value, "unit": a.unit, "description": a.description,
+                            "sign": a.sign, "points": a.points, "tolerance": a.tolerance.describe()}
+                    for a in result.answers},
+        "intermediate": intermediate(result),
+        "checks": {"virtual_work_residual": result.virtual_work_residual,
+                   "condition_number": result.condition_number,
+                   "transmission_angle": result.transmission_angle},
+    }
+
+
+def as_text(result: Result) -> str:
+    p = result.problem
+    lines = [f"{p.id}: {p.title}", f"  source: {p.source.get('document', '')}, {p.source.get('ref', '')}",
+             "parameters:"]
+    for n, v in result.values.items():
+        par = p.parameters[n]
+        lines.append(f"  {n:<10} = {fmt(v, 6)} {units.pretty(par.unit)}  {par.description}")
+    for name, sel in intermediate(result).items():
+        lines.append("intermediate" + ("" if name == "_" else f" (case {name})") + ":")
+        for k, d in sel.items():
+            lines.append(f"  {k:<22} = {fmt(d['value'])} {units.pretty(d['unit'])}")
+    lines.append("answers:")
+    for a in result.answers:
+        sign = f"  [{a.sign}]" if a.sign else ""
+        lines.append(f"  {a.key:<8} = {fmt(a.value)} {units.pretty(a.unit)}  {a.description}{sign}")
+    lines.append(f"checks: virtual-work residual {result.virtual_work_residual:.2e}, condition number "
+                 f"{result.condition_number:.3g}, transmission angle {result.transmission_angle:.1f}°")
+    return "\n".join(lines)
