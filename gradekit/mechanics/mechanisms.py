@@ -87,6 +87,16 @@ def _rev(name: str, a: str, b: str, pts: dict[str, P]) -> Revolute:
     return Revolute(name, a, b, pts[name])
 
 
+def single_crank(p: dict, m: Motion, branch: int = 1, fmt: Fmt = _mm) -> Linkage:
+    """One link O2A pinned to the frame and driven: the inertia of a single link (slides 002)."""
+    o2 = P.fixed(p.get("x_O2", 0.0), p.get("y_O2", 0.0))
+    th = m.jet()
+    pts = {"O2": o2, "A": o2 + P.polar(p["crank"], th)}
+    bodies = {"crank": Body("crank", o2, th)}
+    return Linkage("crank", bodies, (_rev("O2", GROUND, "crank", pts),), pts, Driver("crank"), "crank",
+                   90.0, p["crank"], {"crank": p["crank"]})
+
+
 def fourbar(p: dict, m: Motion, branch: int = 1, fmt: Fmt = _mm) -> Linkage:
     """Four-bar O2-A-B-O4: crank O2A driven, coupler AB, rocker O4B, frame O2O4 at any angle."""
     o2 = P.fixed(p.get("x_O2", 0.0), p.get("y_O2", 0.0))
@@ -243,6 +253,7 @@ class Kind:
 
 _POS = {"x_O2": 0.0, "y_O2": 0.0}
 KINDS: dict[str, Kind] = {
+    "crank": Kind(single_crank, ("crank",), dict(_POS), ("crank",), ("O2", "A")),
     "fourbar": Kind(fourbar, ("crank", "coupler", "rocker", "frame"),
                     {**_POS, "frame_angle": 0.0}, ("crank", "coupler", "rocker"),
                     ("O2", "A", "B", "O4")),
