@@ -1,0 +1,213 @@
+"""An assignment: which bank problems, worth what, for which course and term; and its keys.
+
+The assignment YAML names the problems (bank ids) with their points and optional tolerance
+overrides. Every student's variant of every problem follows from (course, salt, student id,
+problem id), so generation and grading recompute exactly the same keys; the manifest records
+hashes so that grading notices when the bank or the assignment changed.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+from dataclasses import dataclass
+from pathlib import Path
+
+from gradekit import __version__
+from gradekit.bank.registry import load_bank
+from gradekit.bank.schema import DEFAULT_TOLERANCE, Problem, _Collector, _tolerance
+from gradekit.bank.yamlfile import load
+from gradekit.errors import ErrorList, GradekitError, ProblemError
+from gradekit.keys import KeyEntry, Mistake, Tolerance
+from gradekit.sampling import Variant, derive_seed, variant
+
+
+@dataclass(frozen=True)
+class Item:
+    """One problem of an assignment: its label (``p1``), bank problem, points and tolerance override."""
+
+    label: str
+    problem: Problem
+    points: float
+    tolerance: Tolerance | None = None
+    tolerances: dict[str, Tolerance] = dataclasses.field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class Assignment:
+    title: str
+    course: str
+    term: str
+    due: str
+    salt: str
+    instructions: str
+    submission: str
+    items: tuple[Item, ...]
+    path: str
+    sha256: str
+
+
+def load_assignment(path: Path | str, bank: Path | str | None = None) -> Assignment:
+    """Load and validate an assignment file; every error is reported together."""
+    path = Path(path)
+    data = load(path)
+    c = _Collector(str(path))
+    c.mapping(data, "", ("title", "course", "salt", "problems"),
+              ("term", "due", "instructions", "submission", "bank"))
+    problems = load_bank(bank or (path.parent / data["bank"] if isinstance(data.get("bank"), str) else None))
+    items = []
+    labels: set[str] = set()
+    node = data.get("problems")
+    if not isinstance(node, list) or not node:
+        c.err(data, "problems", "problems", "expected a list of problems (id, points), got nothing")
+        node = []
+    for i, it in enumerate(node):
+        w = f"problems[{i}]"
+        m = c.mapping(it, w, ("id", "points"), ("label", "tolerance", "tolerances"), node, i)
+        if m is None:
+            continue
+        pid = m.get("id")
+        if pid not in problems:
+            c.err(m, "id", f"{w}.id", f"expected a bank problem id, got {pid!r}")
+            continue
+        prob = problems[pid]
+        label = str(m.get("label", f"p{i + 1}"))
+        if label in labels:
+            c.err(m, "label", f"{w}.label", f"expected a unique label, got {label!r} twice")
+        labels.add(label)
+        pts = c.number(m, "points", f"{w}.points", 0.0, positive=True) or 0.0
+        default = DEFAULT_TOLERANCE[prob.method]
+        tol = _tolerance(c, m.get("tolerance"), f"{w}.tolerance", default, m) if "tolerance" in m else None
+        per = {}
+        tm = m.get("tolerances", {})
+        keys = {a.key for a in prob.answers}
+        for k in (c.mapping(tm, f"{w}.tolerances", (), tuple(sorted(keys)), m, "tolerances") or {}):
+            per[k] = _tolerance(c, tm[k], f"{w}.tolerances.{k}", default, tm)
+        items.append(Item(label, prob, pts, tol, per))
+    for k in ("title", "course", "salt"):
+        if not isinstance(data.get(k), str) or not data.get(k):
+            c.err(data, k, k, f"expected text, got {data.get(k)!r}")
+    if c.errors:
+        raise ErrorList(c.errors)
+    return Assignment(str(data["title"]), str(data["course"]), str(data.get("term", "")),
+                      str(data.get("due", "")), str(data["salt"]), str(data.get("instructions", "")),
+                      str(data.get("submission", "")), tuple(items), str(path),
+                      hashlib.sha256(path.read_bytes()).hexdigest())
+
+
+def student_variant(asg: Assignment, item: Item, student_id: str, redraw: int = 0) -> Variant:
+    """The variant of one item for one student (deterministic)."""
+    try:
+        return variant(item.problem, course=asg.course, salt=asg.salt, student=student_id, redraw=redraw)
+    except GradekitError as exc:
+        raise ProblemError(f"student {student_id}: {exc.format_message()}", path=asg.path,
+                           field=f"problems.{item.label}") from None
+
+
+def keys_for(asg: Assignment, item: Item, student_id: str, v: Variant, with_mistakes: bool = True) -> list[KeyEntry]:
+    """The key entries of one item for one student; points of the item shared by answer points."""
+    answers = v.result.answers
+    weight = sum(a.points for a in answers) or 1.0
+    mistakes = catalogued_mistakes(v) if with_mistakes else {}
+    out = []
+    for a in answers:
+        base = a.key.split("_")[0] if a.case else a.key
+        tol = item.tolerances.get(base) or item.tolerance or a.tolerance
+        out.append(KeyEntry(student_id, item.label, f"{item.label}.{a.key}", float(a.value), a.unit, tol,
+                            round(item.points * a.points / weight, 6), a.description, a.sign,
+                            tuple(mistakes.get(a.key, ()))))
+    return out
+
+
+def catalogued_mistakes(v: Variant) -> dict[str, list[Mistake]]:
+    """Re-solve the variant with each catalogued mistake; map answer key -> mistakes that change it.
+
+    Mistakes that need a re-solve: the inertia torque left out, gravity left out, a static answer
+    to a dynamic problem, x and y swapped, magnitude given for a component. (Sign flips and unit
+    slips need no re-solve; the grader adds them.)
+    """
+    from gradekit.pipeline import solve_problem
+
+    p = v.problem
+    out: dict[str, list[Mistake]] = {}
+    variants: list[tuple[str, str, Problem]] = []
+    if p.analysis == "dynamic":
+        variants.append(("static-answer", "a static answer to a dynamic problem (inertia left out)",
+                         dataclasses.replace(p, analysis="static")))
+        if any(m.inertia not in (0, 0.0) for m in p.mass):
+            no_i = tuple(dataclasses.replace(m, inertia=0.0) for m in p.mass)
+            variants.append(("no-inertia-torque", "the inertia torque I·α left out",
+                             dataclasses.replace(p, mass=no_i)))
+    if p.gravity is not None:
+        variants.append(("no-gravity", "gravity (the weights) left out", dataclasses.replace(p, gravity=None)))
+    for name, text, mp in variants:
+        try:
+            res = solve_problem(mp, v.values)
+        except GradekitError:
+            continue
+        for a, b in zip(v.result.answers, res.answers, strict=True):
+            if abs(b.value - a.value) > 1e-6 * max(abs(a.value), 1e-12):
+                out.setdefault(a.key, []).append(Mistake(name, text, float(b.value)))
+    for a in v.result.answers:
+        comp = _swap_and_component(v, a)
+        out.setdefault(a.key, []).extend(m for m in comp if abs(m.value - a.value) > 1e-9 * max(abs(a.value), 1))
+    return out
+
+
+def _swap_and_component(v: Variant, a) -> list[Mistake]:
+    """x/y swapped and magnitude-for-component, read off the same solution's flat results."""
+    if not a.of.endswith((".x", ".y")):
+        return []
+    case = next(c for c in v.result.cases if c.name == a.case)
+    stem, comp = a.of.rsplit(".", 1)
+    other = case.results.get(f"{stem}.{'y' if comp == 'x' else 'x'}")
+    mag = case.results.get(f"{stem}.mag")
+    from gradekit import units
+
+    out = []
+    if other:
+        out.append(Mistake("x-y-swapped", "the x and y components swapped",
+                           units.convert(other[0], other[1], a.unit)))
+    if mag:
+        out.append(Mistake("magnitude-for-component", "the magnitude given for a component",
+                           units.convert(mag[0], mag[1], a.unit)))
+    return out
+
+
+def manifest(asg: Assignment, students: list[str], seeds: dict[str, dict[str, int]]) -> dict:
+    """What grading needs to recompute and verify the same keys."""
+    return {
+        "gradekit": __version__,
+        "assignment": {"path": asg.path, "sha256": asg.sha256, "title": asg.title, "course": asg.course,
+                       "salt": asg.salt},
+        "problems": {it.label: {"id": it.problem.id, "sha256": problem_hash(it.problem), "points": it.points}
+                     for it in asg.items},
+        "students": {s: seeds.get(s, {}) for s in students},
+    }
+
+
+def problem_hash(p: Problem) -> str:
+    return hashlib.sha256(Path(p.path).read_bytes()).hexdigest() if p.path else ""
+
+
+def check_manifest(asg: Assignment, path: Path) -> list[str]:
+    """Differences between an assignment as it is now and the manifest written at generation."""
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError) as exc:
+        raise ProblemError(f"expected a manifest.json written by gradekit generate, got {exc}", path=str(path)) from None
+    notes = []
+    if data.get("assignment", {}).get("sha256") != asg.sha256:
+        notes.append("the assignment file changed since the documents were generated")
+    for it in asg.items:
+        old = data.get("problems", {}).get(it.label, {})
+        if old.get("id") != it.problem.id:
+            notes.append(f"{it.label}: the problem is now {it.problem.id}, was {old.get('id')}")
+        elif old.get("sha256") != problem_hash(it.problem):
+            notes.append(f"{it.label}: bank problem {it.problem.id} changed since generation (keys may differ)")
+    return notes
+
+
+def seeds_of(asg: Assignment, student_id: str) -> dict[str, int]:
+    return {it.label: derive_seed(asg.course, asg.salt, student_id, it.problem.id) for it in asg.items}
