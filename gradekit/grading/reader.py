@@ -172,10 +172,15 @@ def parse_value(text: str, *, decimal_comma: bool) -> tuple[float, str]:
         num = num.replace(",", ".")
     value = float(num)
     if m["exp"]:
-        value *= 10.0 ** int(m["exp"][:6])
+        try:
+            value *= 10.0 ** int(m["exp"][:6])
+        except OverflowError:
+            value = math.inf
     if not math.isfinite(value):
         raise ValueError(f"expected a finite number, got {_clip(text.strip())!r}")
     unit = m["unit"].strip()
+    if re.match(r"[.,]?\d", unit):  # '1 120', '1.120,5': a thousands separator or two decimal marks
+        raise ValueError(f"expected one number without thousands separators, got {_clip(text.strip())!r}")
     if unit.startswith("[") and unit.endswith("]"):
         unit = unit[1:-1].strip()
     return value, unit
@@ -305,7 +310,7 @@ class _Layout:
             return self._long(rows[1:], id_col, key_col, value_col, unit_col, len(header))
         wide = {i: self.keys.match(c) for i, c in enumerate(header_cells)}
         wide = {i: k for i, k in wide.items() if k is not None}
-        if wide:
+        if len(wide) >= 2 or (wide and id_col is not None):
             return self._wide(rows[1:], id_col, wide, header_cells)
         # No header: find the column holding keys in the first row.
         for i, cell in enumerate(header_cells):
@@ -475,6 +480,11 @@ class _Layout:
     def _finish(
         self, drafts: dict[str | None, _Draft], readable: bool = True, class_wide: bool = False
     ) -> list[Submission]:
+        if not drafts:  # a header and nothing below it
+            found = self.ids.from_path(self.relative)
+            owner = next(iter(found)) if len(found) == 1 else None
+            issue = self.issue(None, "file", "expected answer rows below the header, got none")
+            drafts, readable = {owner: _Draft(issues=[issue])}, False
         return [
             Submission(
                 path=self.display,

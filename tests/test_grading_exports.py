@@ -1,0 +1,126 @@
+"""Feedback file names that stay inside OUT and never collide; generic mistakes; integrity."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import pytest
+
+from gradekit.grading.compare import compare, diagnose, generic_mistakes
+from gradekit.grading.exports import feedback_html, feedback_markdown, safe_name, safe_names
+from gradekit.grading.reader import Answer
+from gradekit.keys import KeyEntry, Mistake, Tolerance
+
+
+@pytest.mark.parametrize(
+    "student_id",
+    [
+        "../x",
+        "a/b",
+        "a\\b",
+        "CON",
+        "con.txt",
+        "Lpt1",
+        "..",
+        ".",
+        "",
+        " ",
+        "x" * 300,
+        "../../etc/passwd",
+        "a\x00b",
+        "é",
+    ],
+)
+def test_safe_names_stay_inside_out(tmp_path: Path, student_id: str) -> None:
+    name = safe_name(student_id)
+    path = (tmp_path / f"{name}.md").resolve()
+    assert path.parent == tmp_path.resolve()
+    assert name not in ("", ".", "..") and "/" not in name and "\\" not in name
+    assert name.split(".")[0].upper() not in {"CON", "PRN", "AUX", "NUL", "LPT1"}
+    assert len(name) <= 64
+
+
+def test_safe_names_keep_plain_ids_and_mark_changed_ones() -> None:
+    assert safe_name("12345") == "12345"
+    assert safe_name("s-12_a") == "s-12_a"
+    assert safe_name("../x") == "x-" + __import__("hashlib").sha256(b"../x").hexdigest()[:8]
+
+
+def test_ids_never_share_a_file_name() -> None:
+    ids = ["a/b", "a_b", "a\\b", "a b", "AB", "ab", "Ab", "CON", "con", "con-1", "x", "X", "../x", "./x"]
+    names = safe_names(ids)
+    assert len({n.casefold() for n in names.values()}) == len(ids)
+    assert names["a_b"] == "a_b" and names["ab"] == "ab" and names["x"] == "x"
+
+
+ENTRY = KeyEntry(
+    "1",
+    "p1",
+    "p1.T",
+    1.12,
+    "N*m",
+    Tolerance("relative", rel=0.01),
+    points=2.0,
+    sign_convention="counter-clockwise positive",
+    mistakes=(Mistake("inertia torque left out", "the inertia torque of link 3 is missing", 0.87),),
+)
+
+
+def test_generic_mistakes() -> None:
+    found = generic_mistakes(ENTRY)
+    assert [m.name for m in found] == ["sign flipped", "×1000 unit slip", "÷1000 unit slip"]
+    assert [m.value for m in found] == pytest.approx([-1.12, 1120.0, 0.00112])
+    assert found[0].description == "the sign is reversed (convention: counter-clockwise positive)"
+    angle = KeyEntry("1", "p1", "p1.th", 0.5, "rad", Tolerance())
+    assert [m.name for m in generic_mistakes(angle)][-1] == "degrees for radians"
+    assert generic_mistakes(angle)[-1].value == pytest.approx(0.5 * 180 / math.pi)
+    degrees = KeyEntry("1", "p1", "p1.th", 30.0, "deg", Tolerance())
+    assert generic_mistakes(degrees)[-1].value == pytest.approx(math.pi / 6)
+    zero = KeyEntry("1", "p1", "p1.F", 0.0, "N", Tolerance(abs=0.1))
+    assert "sign flipped" not in [m.name for m in generic_mistakes(zero)]
+
+
+@pytest.mark.parametrize(
+    ("raw", "unit", "correct", "diagnosis"),
+    [
+        ("1.12", "", True, None),
+        ("1.125", "N*m", True, None),
+        ("-1.12", "", False, "sign flipped"),
+        ("1120", "", False, "×1000 unit slip"),
+        ("1120", "N*mm", True, None),
+        ("0.871", "", False, "inertia torque left out"),
+        ("9.91", "lbf*in", True, None),  # 9.91 lbf·in = 1.1197 N·m
+        ("1.2", "", False, None),
+    ],
+)
+def test_compare_and_diagnose(raw: str, unit: str, correct: bool, diagnosis: str | None) -> None:
+    answer = Answer("p1.T", raw, unit, float(raw), unit, 2)
+    result = compare(ENTRY, answer)
+    assert result.correct is correct
+    assert (result.diagnosis.name if result.diagnosis else None) == diagnosis
+    assert result.points == (2.0 if correct else 0.0)
+
+
+def test_entry_mistakes_take_precedence_over_generic_ones() -> None:
+    entry = KeyEntry(
+        "1", "p1", "p1.T", 1.0, "N*m", Tolerance(), mistakes=(Mistake("sign flipped", "custom", -1.0),)
+    )
+    found = diagnose(entry, -1.0)
+    assert found is not None and found.description == "custom"
+
+
+def test_feedback_escapes_what_students_wrote() -> None:
+    from gradekit.grading.compare import grade_student
+    from gradekit.grading.reader import Submission
+    from gradekit.roster import Student
+
+    student = Student("1", "<script>alert(1)</script> | x")
+    sub = Submission(
+        "s.csv", "1", (Answer("p1.T", "<b>1.12</b>|", "", None, "", 2, issue="expected a number"),)
+    )
+    grade = grade_student(student, [ENTRY], sub)
+    page = feedback_html(grade, {}, "HW", reveal=False)
+    assert "<script>" not in page and "&lt;script&gt;" in page and "&lt;b&gt;1.12&lt;/b&gt;|" in page
+    text = feedback_markdown(grade, {}, "HW", reveal=False)
+    assert "\\<b\\>1.12\\</b\\>\\|" in text and "\\<script\\>" in text
