@@ -53,8 +53,7 @@ def load_assignment(path: Path | str, bank: Path | str | None = None) -> Assignm
     path = Path(path)
     data = load(path)
     c = _Collector(str(path))
-    c.mapping(data, "", ("title", "course", "salt", "problems"),
-              ("term", "due", "instructions", "submission", "bank"))
+    c.mapping(data, "", ("title", "course", "salt", "problems"), ("term", "due", "instructions", "submission", "bank"))
     problems = load_bank(bank or (path.parent / data["bank"] if isinstance(data.get("bank"), str) else None))
     items = []
     labels: set[str] = set()
@@ -82,7 +81,7 @@ def load_assignment(path: Path | str, bank: Path | str | None = None) -> Assignm
         per = {}
         tm = m.get("tolerances", {})
         keys = {a.key for a in prob.answers}
-        for k in (c.mapping(tm, f"{w}.tolerances", (), tuple(sorted(keys)), m, "tolerances") or {}):
+        for k in c.mapping(tm, f"{w}.tolerances", (), tuple(sorted(keys)), m, "tolerances") or {}:
             per[k] = _tolerance(c, tm[k], f"{w}.tolerances.{k}", default, tm)
         items.append(Item(label, prob, pts, tol, per))
     for k in ("title", "course", "salt"):
@@ -90,10 +89,18 @@ def load_assignment(path: Path | str, bank: Path | str | None = None) -> Assignm
             c.err(data, k, k, f"expected text, got {data.get(k)!r}")
     if c.errors:
         raise ErrorList(c.errors)
-    return Assignment(str(data["title"]), str(data["course"]), str(data.get("term", "")),
-                      str(data.get("due", "")), str(data["salt"]), str(data.get("instructions", "")),
-                      str(data.get("submission", "")), tuple(items), str(path),
-                      hashlib.sha256(path.read_bytes()).hexdigest())
+    return Assignment(
+        str(data["title"]),
+        str(data["course"]),
+        str(data.get("term", "")),
+        str(data.get("due", "")),
+        str(data["salt"]),
+        str(data.get("instructions", "")),
+        str(data.get("submission", "")),
+        tuple(items),
+        str(path),
+        hashlib.sha256(path.read_bytes()).hexdigest(),
+    )
 
 
 def student_variant(asg: Assignment, item: Item, student_id: str, redraw: int = 0) -> Variant:
@@ -101,8 +108,9 @@ def student_variant(asg: Assignment, item: Item, student_id: str, redraw: int = 
     try:
         return variant(item.problem, course=asg.course, salt=asg.salt, student=student_id, redraw=redraw)
     except GradekitError as exc:
-        raise ProblemError(f"student {student_id}: {exc.format_message()}", path=asg.path,
-                           field=f"problems.{item.label}") from None
+        raise ProblemError(
+            f"student {student_id}: {exc.format_message()}", path=asg.path, field=f"problems.{item.label}"
+        ) from None
 
 
 def keys_for(asg: Assignment, item: Item, student_id: str, v: Variant, with_mistakes: bool = True) -> list[KeyEntry]:
@@ -114,9 +122,20 @@ def keys_for(asg: Assignment, item: Item, student_id: str, v: Variant, with_mist
     for a in answers:
         base = a.key.split("_")[0] if a.case else a.key
         tol = item.tolerances.get(base) or item.tolerance or a.tolerance
-        out.append(KeyEntry(student_id, item.label, f"{item.label}.{a.key}", float(a.value), a.unit, tol,
-                            round(item.points * a.points / weight, 6), a.description, a.sign,
-                            tuple(mistakes.get(a.key, ()))))
+        out.append(
+            KeyEntry(
+                student_id,
+                item.label,
+                f"{item.label}.{a.key}",
+                float(a.value),
+                a.unit,
+                tol,
+                round(item.points * a.points / weight, 6),
+                a.description,
+                a.sign,
+                tuple(mistakes.get(a.key, ())),
+            )
+        )
     return out
 
 
@@ -133,12 +152,16 @@ def catalogued_mistakes(v: Variant) -> dict[str, list[Mistake]]:
     out: dict[str, list[Mistake]] = {}
     variants: list[tuple[str, str, Problem]] = []
     if p.analysis == "dynamic":
-        variants.append(("static-answer", "a static answer to a dynamic problem (inertia left out)",
-                         dataclasses.replace(p, analysis="static")))
+        variants.append(
+            (
+                "static-answer",
+                "a static answer to a dynamic problem (inertia left out)",
+                dataclasses.replace(p, analysis="static"),
+            )
+        )
         if any(m.inertia not in (0, 0.0) for m in p.mass):
             no_i = tuple(dataclasses.replace(m, inertia=0.0) for m in p.mass)
-            variants.append(("no-inertia-torque", "the inertia torque I·α left out",
-                             dataclasses.replace(p, mass=no_i)))
+            variants.append(("no-inertia-torque", "the inertia torque I·α left out", dataclasses.replace(p, mass=no_i)))
     if p.gravity is not None:
         variants.append(("no-gravity", "gravity (the weights) left out", dataclasses.replace(p, gravity=None)))
     for name, text, mp in variants:
@@ -167,11 +190,13 @@ def _swap_and_component(v: Variant, a) -> list[Mistake]:
 
     out = []
     if other:
-        out.append(Mistake("x-y-swapped", "the x and y components swapped",
-                           units.convert(other[0], other[1], a.unit)))
+        out.append(Mistake("x-y-swapped", "the x and y components swapped", units.convert(other[0], other[1], a.unit)))
     if mag:
-        out.append(Mistake("magnitude-for-component", "the magnitude given for a component",
-                           units.convert(mag[0], mag[1], a.unit)))
+        out.append(
+            Mistake(
+                "magnitude-for-component", "the magnitude given for a component", units.convert(mag[0], mag[1], a.unit)
+            )
+        )
     return out
 
 
@@ -179,10 +204,16 @@ def manifest(asg: Assignment, students: list[str], seeds: dict[str, dict[str, in
     """What grading needs to recompute and verify the same keys."""
     return {
         "gradekit": __version__,
-        "assignment": {"path": asg.path, "sha256": asg.sha256, "title": asg.title, "course": asg.course,
-                       "salt": asg.salt},
-        "problems": {it.label: {"id": it.problem.id, "sha256": problem_hash(it.problem), "points": it.points}
-                     for it in asg.items},
+        "assignment": {
+            "path": asg.path,
+            "sha256": asg.sha256,
+            "title": asg.title,
+            "course": asg.course,
+            "salt": asg.salt,
+        },
+        "problems": {
+            it.label: {"id": it.problem.id, "sha256": problem_hash(it.problem), "points": it.points} for it in asg.items
+        },
         "students": {s: seeds.get(s, {}) for s in students},
     }
 
@@ -196,7 +227,9 @@ def check_manifest(asg: Assignment, path: Path) -> list[str]:
     try:
         data = json.loads(path.read_text(encoding="utf-8"))
     except (OSError, ValueError) as exc:
-        raise ProblemError(f"expected a manifest.json written by gradekit generate, got {exc}", path=str(path)) from None
+        raise ProblemError(
+            f"expected a manifest.json written by gradekit generate, got {exc}", path=str(path)
+        ) from None
     notes = []
     if data.get("assignment", {}).get("sha256") != asg.sha256:
         notes.append("the assignment file changed since the documents were generated")

@@ -31,8 +31,12 @@ def _variant(problem, published: bool, student: str | None, seed: int | None, co
     return variant(problem, course=course, salt=salt, student=student, seed=seed)
 
 
-_bank_opt = click.option("--bank", type=click.Path(file_okay=False), default=None,
-                         help="Problem bank folder (default: the bundled problem_bank).")
+_bank_opt = click.option(
+    "--bank",
+    type=click.Path(file_okay=False),
+    default=None,
+    help="Problem bank folder (default: the bundled problem_bank).",
+)
 
 
 @main.command()
@@ -44,8 +48,16 @@ _bank_opt = click.option("--bank", type=click.Path(file_okay=False), default=Non
 @click.option("--salt", default="", help="Assignment salt (part of the seed).")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
 @_bank_opt
-def solve(problem: str, published: bool, student: str | None, seed: int | None, course: str,
-          salt: str, as_json: bool, bank: str | None) -> None:
+def solve(
+    problem: str,
+    published: bool,
+    student: str | None,
+    seed: int | None,
+    course: str,
+    salt: str,
+    as_json: bool,
+    bank: str | None,
+) -> None:
     """Solve PROBLEM (a bank id or a YAML path) and print parameters, intermediate values and answers."""
     from gradekit import report
     from gradekit.bank.registry import resolve
@@ -69,10 +81,20 @@ def bank_list(as_json: bool, bank: str | None) -> None:
     """List the bank's problems."""
     from gradekit.bank.registry import load_bank
 
-    rows = [{"id": p.id, "title": p.title, "source": p.source, "mechanism": p.kind, "method": p.method,
-             "analysis": p.analysis, "tags": list(p.tags), "answers": [a.key for a in p.answers],
-             "random_parameters": [n for n, q in p.parameters.items() if q.random]}
-            for p in load_bank(bank).values()]
+    rows = [
+        {
+            "id": p.id,
+            "title": p.title,
+            "source": p.source,
+            "mechanism": p.kind,
+            "method": p.method,
+            "analysis": p.analysis,
+            "tags": list(p.tags),
+            "answers": [a.key for a in p.answers],
+            "random_parameters": [n for n, q in p.parameters.items() if q.random],
+        }
+        for p in load_bank(bank).values()
+    ]
     if as_json:
         click.echo(json.dumps(rows, indent=2))
         return
@@ -100,10 +122,16 @@ def bank_show(problem: str, student: str | None, course: str, salt: str, bank: s
 
 @bank.command("check")
 @click.argument("ids", nargs=-1)
-@click.option("--variants", type=click.IntRange(1, 100000), default=100, show_default=True,
-              help="Variants drawn per problem.")
-@click.option("--class-size", type=click.IntRange(1, 100000), default=300, show_default=True,
-              help="Class size for the distinct-variant count.")
+@click.option(
+    "--variants", type=click.IntRange(1, 100000), default=100, show_default=True, help="Variants drawn per problem."
+)
+@click.option(
+    "--class-size",
+    type=click.IntRange(1, 100000),
+    default=300,
+    show_default=True,
+    help="Class size for the distinct-variant count.",
+)
 @_bank_opt
 def bank_check(ids: tuple[str, ...], variants: int, class_size: int, bank: str | None) -> None:
     """Stress-test problems: every variant assembles, solves, checks and grades its own key."""

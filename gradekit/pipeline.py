@@ -20,9 +20,17 @@ from gradekit.mechanics.forces import Solution, solve
 from gradekit.mechanics.mechanisms import Motion, build
 from gradekit.mechanics.model import GROUND, Analysis, Linkage, Load, MassProps
 
-SI = {"length": "m", "force": "N", "mass": "kg", "inertia": "kg*m**2", "torque": "N*m",
-      "angle": "rad", "angular_velocity": "rad/s", "angular_acceleration": "rad/s**2",
-      "acceleration": "m/s**2"}
+SI = {
+    "length": "m",
+    "force": "N",
+    "mass": "kg",
+    "inertia": "kg*m**2",
+    "torque": "N*m",
+    "angle": "rad",
+    "angular_velocity": "rad/s",
+    "angular_acceleration": "rad/s**2",
+    "acceleration": "m/s**2",
+}
 
 
 def fill(problem: Problem, values: dict[str, float]) -> dict[str, float]:
@@ -71,8 +79,12 @@ class Context:
             try:
                 return units.convert(self.values[v], pr.parameters[v].unit, SI[dim])
             except Exception as exc:
-                raise ProblemError(f"expected a {dim.replace('_', ' ')} unit for parameter {v!r}, got "
-                                   f"{pr.parameters[v].unit!r} ({exc})", path=pr.path, field=where) from None
+                raise ProblemError(
+                    f"expected a {dim.replace('_', ' ')} unit for parameter {v!r}, got "
+                    f"{pr.parameters[v].unit!r} ({exc})",
+                    path=pr.path,
+                    field=where,
+                ) from None
         try:
             num = float(v) if not isinstance(v, str) else float(expr.evaluate(v, self.values))
         except expr.ExprError as exc:
@@ -89,8 +101,11 @@ def length_formatter(problem: Problem):
 def build_linkage(problem: Problem, values: dict[str, float], unit_speed: bool = False) -> Linkage:
     """The mechanism of *problem* at *values*, with its exact kinematics."""
     ctx = Context(problem, values)
-    geo = {k: ctx.si(v, "angle" if k in ANGLE_PARAMS else "length", f"mechanism.geometry.{k}")
-           for k, v in problem.geometry.items() if k != "ram_branch"}
+    geo = {
+        k: ctx.si(v, "angle" if k in ANGLE_PARAMS else "length", f"mechanism.geometry.{k}")
+        for k, v in problem.geometry.items()
+        if k != "ram_branch"
+    }
     if "ram_branch" in problem.geometry:
         geo["ram_branch"] = 1 if float(problem.geometry["ram_branch"]) >= 0 else -1
     theta = ctx.si(problem.inputs["theta"], "angle", "mechanism.input.theta")
@@ -99,8 +114,9 @@ def build_linkage(problem: Problem, values: dict[str, float], unit_speed: bool =
     if problem.analysis == "static" or unit_speed:
         omega, alpha = 1.0, 0.0  # virtual motion: velocity ratios for the virtual-work check
     try:
-        return build(problem.kind, geo, Motion(theta, omega, alpha), problem.branch,
-                     length_formatter(problem), problem.driver)
+        return build(
+            problem.kind, geo, Motion(theta, omega, alpha), problem.branch, length_formatter(problem), problem.driver
+        )
     except GeometryError as exc:
         raise GeometryError(f"{problem.id}: {exc.detail}", path=problem.path, field="mechanism") from None
 
@@ -118,23 +134,45 @@ def build_analysis(problem: Problem, values: dict[str, float]) -> Analysis:
         else:
             force = (ctx.si(ld.fx, "force", f"{w}.fx"), ctx.si(ld.fy, "force", f"{w}.fy"))
             rel = False
-        loads.append(Load(ld.name, ld.body, force, ctx.si(ld.torque, "torque", f"{w}.torque"), ld.at,
-                          ctx.si(ld.along, "length", f"{w}.along"), ctx.si(ld.across, "length", f"{w}.across"),
-                          rel))
+        loads.append(
+            Load(
+                ld.name,
+                ld.body,
+                force,
+                ctx.si(ld.torque, "torque", f"{w}.torque"),
+                ld.at,
+                ctx.si(ld.along, "length", f"{w}.along"),
+                ctx.si(ld.across, "length", f"{w}.across"),
+                rel,
+            )
+        )
     gravity = None
     if problem.gravity is not None:
         g = ctx.si(problem.gravity["g"], "acceleration", "gravity.g")
         a = ctx.si(problem.gravity.get("angle", -90.0), "angle", "gravity.angle")
         gravity = (g * math.cos(a), g * math.sin(a))
-    g_w = (ctx.si(problem.weight_g, "acceleration", "weight_g") if problem.weight_g is not None
-           else math.hypot(*gravity) if gravity else 9.80665)
+    g_w = (
+        ctx.si(problem.weight_g, "acceleration", "weight_g")
+        if problem.weight_g is not None
+        else math.hypot(*gravity)
+        if gravity
+        else 9.80665
+    )
     mass = {}
     for m in problem.mass:
         w = f"mass.{m.body}"
-        kg = (ctx.si(m.mass, "mass", f"{w}.mass") if m.mass is not None
-              else ctx.si(m.weight, "force", f"{w}.weight") / g_w)
-        mass[m.body] = MassProps(kg, ctx.si(m.inertia, "inertia", f"{w}.inertia"), m.at,
-                                 ctx.si(m.along, "length", f"{w}.along"), ctx.si(m.across, "length", f"{w}.across"))
+        kg = (
+            ctx.si(m.mass, "mass", f"{w}.mass")
+            if m.mass is not None
+            else ctx.si(m.weight, "force", f"{w}.weight") / g_w
+        )
+        mass[m.body] = MassProps(
+            kg,
+            ctx.si(m.inertia, "inertia", f"{w}.inertia"),
+            m.at,
+            ctx.si(m.along, "length", f"{w}.along"),
+            ctx.si(m.across, "length", f"{w}.across"),
+        )
     return Analysis(problem.analysis == "dynamic", gravity, mass, tuple(loads), max_condition=1e7)
 
 
@@ -248,8 +286,11 @@ def solve_case(problem: Problem, values: dict[str, float], name: str | None = No
 def solve_problem(problem: Problem, values: dict[str, float]) -> Result:
     """Solve every case of *problem* for one student's *values* and express the answers."""
     full = fill(problem, values)
-    cases = ([solve_case(problem, fill(problem, {**values, **over}), name)
-              for name, over in problem.cases.items()] if problem.cases else [solve_case(problem, full)])
+    cases = (
+        [solve_case(problem, fill(problem, {**values, **over}), name) for name, over in problem.cases.items()]
+        if problem.cases
+        else [solve_case(problem, full)]
+    )
     answers = []
     for spec in problem.answers:
         for case in cases:
@@ -257,17 +298,29 @@ def solve_problem(problem: Problem, values: dict[str, float]) -> Result:
                 continue
             key = spec.key if (spec.case is not None or case.name is None) else f"{spec.key}_{case.name}"
             if spec.of not in case.results:
-                raise ProblemError(f"expected a result this mechanism reports (e.g. "
-                                   f"{', '.join(sorted(k for k in case.results if '.' not in k)[:8])}), "
-                                   f"got {spec.of!r}", path=problem.path, field=f"answers.{spec.key}.of")
+                raise ProblemError(
+                    f"expected a result this mechanism reports (e.g. "
+                    f"{', '.join(sorted(k for k in case.results if '.' not in k)[:8])}), "
+                    f"got {spec.of!r}",
+                    path=problem.path,
+                    field=f"answers.{spec.key}.of",
+                )
             si_value, si_unit = case.results[spec.of]
             try:
-                value = units.convert(si_value, si_unit, spec.unit) if si_unit != "deg" or spec.unit != "deg" else si_value
+                value = (
+                    units.convert(si_value, si_unit, spec.unit) if si_unit != "deg" or spec.unit != "deg" else si_value
+                )
             except Exception:
-                raise ProblemError(f"expected a unit of the same kind as {si_unit}, got {spec.unit!r}",
-                                   path=problem.path, field=f"answers.{spec.key}.unit") from None
-            answers.append(Answer(key, value, spec.unit, spec.description, spec.sign, spec.points,
-                                  spec.tolerance, spec.of, case.name))
+                raise ProblemError(
+                    f"expected a unit of the same kind as {si_unit}, got {spec.unit!r}",
+                    path=problem.path,
+                    field=f"answers.{spec.key}.unit",
+                ) from None
+            answers.append(
+                Answer(
+                    key, value, spec.unit, spec.description, spec.sign, spec.points, spec.tolerance, spec.of, case.name
+                )
+            )
     return Result(problem, full, cases, answers)
 
 

@@ -8,8 +8,16 @@ from gradekit import units
 from gradekit.pipeline import Result
 
 # SI unit of a flat result -> the problem's display dimension
-_DISPLAY = {"N": "force", "N*m": "torque", "m": "length", "deg": None, "rad/s": None,
-            "rad/s**2": None, "m/s**2": "accel", "m/s": "speed"}
+_DISPLAY = {
+    "N": "force",
+    "N*m": "torque",
+    "m": "length",
+    "deg": None,
+    "rad/s": None,
+    "rad/s**2": None,
+    "m/s**2": "accel",
+    "m/s": "speed",
+}
 
 
 def display_unit(problem, si_unit: str) -> str:
@@ -57,7 +65,9 @@ def intermediate(result: Result) -> dict:
                 continue
             if key.startswith(("aG[", "alpha[", "omega[", "Fi[", "Ci[", "h[")) and not dynamic:
                 continue
-            if key.startswith(("F[", "aG[", "Fi[")) and not (key.endswith((".mag", ".angle")) or key.endswith((".x", ".y"))):
+            if key.startswith(("F[", "aG[", "Fi[")) and not (
+                key.endswith((".mag", ".angle")) or key.endswith((".x", ".y"))
+            ):
                 continue
             if key.startswith("F[") and _reverse_seen(base, sel):
                 continue
@@ -82,20 +92,33 @@ def as_json(result: Result) -> dict:
         "title": p.title,
         "source": p.source,
         "parameters": {n: {"value": v, "unit": p.parameters[n].unit} for n, v in result.values.items()},
-        "answers": {a.key: {"value": a.value, "unit": a.unit, "description": a.description,
-                            "sign": a.sign, "points": a.points, "tolerance": a.tolerance.describe()}
-                    for a in result.answers},
+        "answers": {
+            a.key: {
+                "value": a.value,
+                "unit": a.unit,
+                "description": a.description,
+                "sign": a.sign,
+                "points": a.points,
+                "tolerance": a.tolerance.describe(),
+            }
+            for a in result.answers
+        },
         "intermediate": intermediate(result),
-        "checks": {"virtual_work_residual": result.virtual_work_residual,
-                   "condition_number": result.condition_number,
-                   "transmission_angle": result.transmission_angle},
+        "checks": {
+            "virtual_work_residual": result.virtual_work_residual,
+            "condition_number": result.condition_number,
+            "transmission_angle": result.transmission_angle,
+        },
     }
 
 
 def as_text(result: Result) -> str:
     p = result.problem
-    lines = [f"{p.id}: {p.title}", f"  source: {p.source.get('document', '')}, {p.source.get('ref', '')}",
-             "parameters:"]
+    lines = [
+        f"{p.id}: {p.title}",
+        f"  source: {p.source.get('document', '')}, {p.source.get('ref', '')}",
+        "parameters:",
+    ]
     for n, v in result.values.items():
         par = p.parameters[n]
         lines.append(f"  {n:<10} = {fmt(v, 6)} {units.pretty(par.unit)}  {par.description}")
@@ -107,6 +130,8 @@ def as_text(result: Result) -> str:
     for a in result.answers:
         sign = f"  [{a.sign}]" if a.sign else ""
         lines.append(f"  {a.key:<8} = {fmt(a.value)} {units.pretty(a.unit)}  {a.description}{sign}")
-    lines.append(f"checks: virtual-work residual {result.virtual_work_residual:.2e}, condition number "
-                 f"{result.condition_number:.3g}, transmission angle {result.transmission_angle:.1f}°")
+    lines.append(
+        f"checks: virtual-work residual {result.virtual_work_residual:.2e}, condition number "
+        f"{result.condition_number:.3g}, transmission angle {result.transmission_angle:.1f}°"
+    )
     return "\n".join(lines)

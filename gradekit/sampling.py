@@ -53,6 +53,7 @@ class Variant:
     seed: int | None
     draws: int
     result: Result
+    redraw: int = 0
 
 
 def check(problem: Problem, values: dict[str, float]) -> tuple[str | None, Result | None]:
@@ -120,8 +121,16 @@ def _grashof(problem: Problem, full: dict[str, float]) -> str | None:
     return None
 
 
-def variant(problem: Problem, *, course: str = "", salt: str = "", student: str | None = None,
-            seed: int | None = None, redraw: int = 0, max_draws: int = MAX_DRAWS) -> Variant:
+def variant(
+    problem: Problem,
+    *,
+    course: str = "",
+    salt: str = "",
+    student: str | None = None,
+    seed: int | None = None,
+    redraw: int = 0,
+    max_draws: int = MAX_DRAWS,
+) -> Variant:
     """The variant of *problem* for *student* (or *seed*); the published one when both are None.
 
     Raises:
@@ -149,6 +158,38 @@ def variant(problem: Problem, *, course: str = "", salt: str = "", student: str 
             return Variant(problem, values, seed, n, result)
         rejected[reason or "unknown"] += 1
     worst, count = rejected.most_common(1)[0]
-    raise SamplingError(f"expected an acceptable variant within {max_draws} draws, got none: "
-                        f"constraint {worst!r} rejected {count} of them ({dict(rejected)})",
-                        path=problem.path, field="constraints")
+    raise SamplingError(
+        f"expected an acceptable variant within {max_draws} draws, got none: "
+        f"constraint {worst!r} rejected {count} of them ({dict(rejected)})",
+        path=problem.path,
+        field="constraints",
+    )
+
+
+def class_variants(
+    problem: Problem,
+    course: str,
+    salt: str,
+    students: list[str],
+    redraws: dict[str, int] | None = None,
+    limit: int = 50,
+) -> dict[str, Variant]:
+    """Every student's variant, no two alike: a student whose values repeat an earlier student's
+    (in roster order) is re-drawn with the next re-draw counter. *redraws* (from a manifest)
+    fixes the counters already used, so regenerating never changes a printed sheet.
+    """
+    out: dict[str, Variant] = {}
+    seen: set[tuple] = set()
+    randoms = any(p.random for p in problem.parameters.values())
+    for s in students:
+        r = (redraws or {}).get(s, 0)
+        v = variant(problem, course=course, salt=salt, student=s, redraw=r)
+        key = tuple(sorted(v.values.items()))
+        while randoms and key in seen and r < limit and not redraws:
+            r += 1
+            v = variant(problem, course=course, salt=salt, student=s, redraw=r)
+            key = tuple(sorted(v.values.items()))
+        v.redraw = r
+        seen.add(key)
+        out[s] = v
+    return out

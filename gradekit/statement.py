@@ -34,5 +34,6 @@ def render_statement(problem: Problem, values: dict[str, float]) -> str:
     try:
         return _ENV.from_string(problem.statement).render(**ctx).strip()
     except jinja2.TemplateError as exc:
-        raise ProblemError(f"expected a statement using the problem's parameters, got {exc}",
-                           path=problem.path, field="statement") from None
+        raise ProblemError(
+            f"expected a statement using the problem's parameters, got {exc}", path=problem.path, field="statement"
+        ) from None

@@ -13,21 +13,48 @@ from collections.abc import Mapping
 from functools import lru_cache
 
 FUNCTIONS = {
-    "sqrt": math.sqrt, "sin": math.sin, "cos": math.cos, "tan": math.tan,
-    "asin": math.asin, "acos": math.acos, "atan": math.atan, "atan2": math.atan2,
-    "sind": lambda d: math.sin(math.radians(d)), "cosd": lambda d: math.cos(math.radians(d)),
+    "sqrt": math.sqrt,
+    "sin": math.sin,
+    "cos": math.cos,
+    "tan": math.tan,
+    "asin": math.asin,
+    "acos": math.acos,
+    "atan": math.atan,
+    "atan2": math.atan2,
+    "sind": lambda d: math.sin(math.radians(d)),
+    "cosd": lambda d: math.cos(math.radians(d)),
     "tand": lambda d: math.tan(math.radians(d)),
-    "asind": lambda x: math.degrees(math.asin(x)), "acosd": lambda x: math.degrees(math.acos(x)),
+    "asind": lambda x: math.degrees(math.asin(x)),
+    "acosd": lambda x: math.degrees(math.acos(x)),
     "atan2d": lambda y, x: math.degrees(math.atan2(y, x)),
-    "radians": math.radians, "degrees": math.degrees, "abs": abs, "min": min, "max": max,
-    "hypot": math.hypot, "round": round, "log10": math.log10, "exp": math.exp,
+    "radians": math.radians,
+    "degrees": math.degrees,
+    "abs": abs,
+    "min": min,
+    "max": max,
+    "hypot": math.hypot,
+    "round": round,
+    "log10": math.log10,
+    "exp": math.exp,
 }
 CONSTANTS = {"pi": math.pi}
 
-_BIN = {ast.Add: operator.add, ast.Sub: operator.sub, ast.Mult: operator.mul,
-        ast.Div: operator.truediv, ast.Pow: operator.pow, ast.Mod: operator.mod}
-_CMP = {ast.Lt: operator.lt, ast.LtE: operator.le, ast.Gt: operator.gt, ast.GtE: operator.ge,
-        ast.Eq: operator.eq, ast.NotEq: operator.ne}
+_BIN = {
+    ast.Add: operator.add,
+    ast.Sub: operator.sub,
+    ast.Mult: operator.mul,
+    ast.Div: operator.truediv,
+    ast.Pow: operator.pow,
+    ast.Mod: operator.mod,
+}
+_CMP = {
+    ast.Lt: operator.lt,
+    ast.LtE: operator.le,
+    ast.Gt: operator.gt,
+    ast.GtE: operator.ge,
+    ast.Eq: operator.eq,
+    ast.NotEq: operator.ne,
+}
 
 
 class ExprError(ValueError):
@@ -42,18 +69,37 @@ def parse(text: str) -> ast.Expression:
     except SyntaxError as exc:
         raise ExprError(f"expected an arithmetic expression, got {text!r} ({exc.msg})") from None
     for node in ast.walk(tree):
-        ok = isinstance(node, (ast.Expression, ast.Constant, ast.Name, ast.BinOp, ast.UnaryOp,
-                               ast.Compare, ast.BoolOp, ast.IfExp, ast.Call, ast.Load,
-                               ast.operator, ast.unaryop, ast.cmpop, ast.boolop))
+        ok = isinstance(
+            node,
+            (
+                ast.Expression,
+                ast.Constant,
+                ast.Name,
+                ast.BinOp,
+                ast.UnaryOp,
+                ast.Compare,
+                ast.BoolOp,
+                ast.IfExp,
+                ast.Call,
+                ast.Load,
+                ast.operator,
+                ast.unaryop,
+                ast.cmpop,
+                ast.boolop,
+            ),
+        )
         if isinstance(node, ast.Constant) and not isinstance(node.value, (int, float)):
             ok = False
-        if isinstance(node, ast.Call) and not (isinstance(node.func, ast.Name)
-                                               and node.func.id in FUNCTIONS and not node.keywords):
+        if isinstance(node, ast.Call) and not (
+            isinstance(node.func, ast.Name) and node.func.id in FUNCTIONS and not node.keywords
+        ):
             ok = False
         if not ok:
-            raise ExprError(f"expected numbers, names, arithmetic and {', '.join(sorted(FUNCTIONS))}; "
-                            f"got {ast.unparse(node) if hasattr(node, 'lineno') else type(node).__name__!s} "
-                            f"in {text!r}")
+            raise ExprError(
+                f"expected numbers, names, arithmetic and {', '.join(sorted(FUNCTIONS))}; "
+                f"got {ast.unparse(node) if hasattr(node, 'lineno') else type(node).__name__!s} "
+                f"in {text!r}"
+            )
     return tree
 
 

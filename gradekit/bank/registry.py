@@ -36,8 +36,14 @@ def load_bank(path: Path | str | None = None) -> dict[str, Problem]:
             errors.append(exc)
             continue
         if p.id in problems:
-            errors.append(ProblemError(f"expected a unique id, got {p.id!r} (also in {problems[p.id].path})",
-                                       path=str(f), line=p.lines.get("id"), field="id"))
+            errors.append(
+                ProblemError(
+                    f"expected a unique id, got {p.id!r} (also in {problems[p.id].path})",
+                    path=str(f),
+                    line=p.lines.get("id"),
+                    field="id",
+                )
+            )
             continue
         problems[p.id] = p
     if errors:

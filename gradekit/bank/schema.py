@@ -23,8 +23,14 @@ from gradekit.mechanics.mechanisms import KINDS
 Value = float | str  # a literal number (in the problem's default unit) or a parameter/expression
 
 DIMENSIONS = {
-    "length": "mm", "force": "N", "mass": "kg", "inertia": "kg*mm**2", "torque": "N*mm",
-    "angle": "deg", "angular_velocity": "rad/s", "angular_acceleration": "rad/s**2",
+    "length": "mm",
+    "force": "N",
+    "mass": "kg",
+    "inertia": "kg*mm**2",
+    "torque": "N*mm",
+    "angle": "deg",
+    "angular_velocity": "rad/s",
+    "angular_acceleration": "rad/s**2",
     "acceleration": "m/s**2",
 }
 ANGLE_PARAMS = {"frame_angle", "slide_angle"}
@@ -183,15 +189,24 @@ class _Collector:
             line = node.line
         self.errors.append(ProblemError(message, path=self.path, line=line, field=fieldname))
 
-    def mapping(self, node: Any, where: str, required: tuple[str, ...], optional: tuple[str, ...],
-                parent: Any = None, key: Any = None) -> LineDict | None:
+    def mapping(
+        self,
+        node: Any,
+        where: str,
+        required: tuple[str, ...],
+        optional: tuple[str, ...],
+        parent: Any = None,
+        key: Any = None,
+    ) -> LineDict | None:
         if not isinstance(node, dict):
             self.err(parent, key, where, f"expected a mapping, got {_show(node)}")
             return None
         for k in node:
             if k not in required and k not in optional:
                 allowed = ", ".join(sorted(required + optional))
-                self.err(node, k, f"{where}.{k}" if where else str(k), f"expected one of {allowed}; got unknown key {k!r}")
+                self.err(
+                    node, k, f"{where}.{k}" if where else str(k), f"expected one of {allowed}; got unknown key {k!r}"
+                )
         for k in required:
             if k not in node:
                 self.err(node, None, f"{where}.{k}" if where else k, "expected this field, got nothing")
@@ -204,8 +219,9 @@ class _Collector:
             return default or ""
         return v
 
-    def number(self, node: dict, key: str, where: str, default: float | None = None,
-               positive: bool = False) -> float | None:
+    def number(
+        self, node: dict, key: str, where: str, default: float | None = None, positive: bool = False
+    ) -> float | None:
         v = node.get(key, default)
         if v is None:
             return None
@@ -242,8 +258,9 @@ def _show(v: Any) -> str:
     return text if len(text) < 60 else text[:57] + "..."
 
 
-def _value(c: _Collector, node: dict, key: str, where: str, names: set[str],
-           default: Value | None = None) -> Value | None:
+def _value(
+    c: _Collector, node: dict, key: str, where: str, names: set[str], default: Value | None = None
+) -> Value | None:
     """A field that is a number, a parameter name or an expression over parameters."""
     v = node.get(key, default)
     if v is None:
@@ -260,8 +277,13 @@ def _value(c: _Collector, node: dict, key: str, where: str, names: set[str],
             c.err(node, key, where, str(exc))
             return default
         if unknown:
-            c.err(node, key, where, f"expected parameters among {', '.join(sorted(names))}; "
-                                    f"got unknown name(s) {', '.join(sorted(unknown))}")
+            c.err(
+                node,
+                key,
+                where,
+                f"expected parameters among {', '.join(sorted(names))}; "
+                f"got unknown name(s) {', '.join(sorted(unknown))}",
+            )
         return v
     c.err(node, key, where, f"expected a number or parameter expression, got {_show(v)}")
     return default
@@ -280,8 +302,14 @@ def _parameters(c: _Collector, node: Any, parent: dict) -> dict[str, Parameter]:
         if isinstance(spec, (int, float)) and not isinstance(spec, bool):
             c.err(node, name, w, "expected a mapping with value and unit, got a bare number")
             continue
-        m = c.mapping(spec, w, ("unit",), ("value", "range", "step", "sigfigs", "choices", "expr",
-                                          "symbol", "description", "decimals"), node, name)
+        m = c.mapping(
+            spec,
+            w,
+            ("unit",),
+            ("value", "range", "step", "sigfigs", "choices", "expr", "symbol", "description", "decimals"),
+            node,
+            name,
+        )
         if m is None:
             continue
         unit = c.unit(m, "unit", f"{w}.unit")
@@ -289,8 +317,11 @@ def _parameters(c: _Collector, node: Any, parent: dict) -> dict[str, Parameter]:
         low = high = None
         if "range" in m:
             r = m["range"]
-            if (not isinstance(r, list) or len(r) != 2
-                    or not all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in r)):
+            if (
+                not isinstance(r, list)
+                or len(r) != 2
+                or not all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in r)
+            ):
                 c.err(m, "range", f"{w}.range", f"expected [min, max], got {_show(r)}")
             elif not r[1] > r[0]:
                 c.err(m, "range", f"{w}.range", f"expected max greater than min ({r[0]}), got {r[1]}")
@@ -304,8 +335,11 @@ def _parameters(c: _Collector, node: Any, parent: dict) -> dict[str, Parameter]:
         choices: tuple[float, ...] = ()
         if "choices" in m:
             ch = m["choices"]
-            if (not isinstance(ch, list) or not ch
-                    or not all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in ch)):
+            if (
+                not isinstance(ch, list)
+                or not ch
+                or not all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in ch)
+            ):
                 c.err(m, "choices", f"{w}.choices", f"expected a list of numbers, got {_show(ch)}")
             else:
                 choices = tuple(float(x) for x in ch)
@@ -333,15 +367,31 @@ def _parameters(c: _Collector, node: Any, parent: dict) -> dict[str, Parameter]:
         if dec is not None and (not isinstance(dec, int) or isinstance(dec, bool) or not 0 <= dec <= 8):
             c.err(m, "decimals", f"{w}.decimals", f"expected a whole number from 0 to 8, got {_show(dec)}")
             dec = None
-        out[name] = Parameter(name, unit, value, low, high, step, sig, choices, ex,
-                              str(m.get("symbol", "")), str(m.get("description", "")), dec)
+        out[name] = Parameter(
+            name,
+            unit,
+            value,
+            low,
+            high,
+            step,
+            sig,
+            choices,
+            ex,
+            str(m.get("symbol", "")),
+            str(m.get("description", "")),
+            dec,
+        )
     # derived parameters may only refer to defined names, without cycles
     for p in out.values():
         if p.expr:
             unknown = expr.names(p.expr) - set(out)
             if unknown:
-                c.err(node[p.name], "expr", f"parameters.{p.name}.expr",
-                      f"expected parameters among {', '.join(sorted(out))}; got unknown {', '.join(sorted(unknown))}")
+                c.err(
+                    node[p.name],
+                    "expr",
+                    f"parameters.{p.name}.expr",
+                    f"expected parameters among {', '.join(sorted(out))}; got unknown {', '.join(sorted(unknown))}",
+                )
     try:
         order(out)
     except ValueError as exc:
@@ -394,8 +444,19 @@ def _tolerance(c: _Collector, node: Any, where: str, default: Tolerance, parent:
 DEFAULT_TOLERANCE = {"analytical": Tolerance("relative", 0.01, 0.0), "graphical": Tolerance("relative", 0.03, 0.0)}
 
 TOP_REQUIRED = ("id", "title", "source", "method", "analysis", "mechanism", "parameters", "statement", "answers")
-TOP_OPTIONAL = ("tags", "units", "loads", "mass", "gravity", "weight_g", "constraints", "cases",
-                "published", "figure", "notes")
+TOP_OPTIONAL = (
+    "tags",
+    "units",
+    "loads",
+    "mass",
+    "gravity",
+    "weight_g",
+    "constraints",
+    "cases",
+    "published",
+    "figure",
+    "notes",
+)
 
 
 def validate(data: dict, path: str) -> Problem:
@@ -426,8 +487,17 @@ def validate(data: dict, path: str) -> Problem:
     params = _parameters(c, data.get("parameters"), data)
     names = set(params)
 
-    mech = c.mapping(data.get("mechanism"), "mechanism", ("type", "geometry", "input"),
-                     ("branch", "driver", "labels", "points"), data, "mechanism") or LineDict()
+    mech = (
+        c.mapping(
+            data.get("mechanism"),
+            "mechanism",
+            ("type", "geometry", "input"),
+            ("branch", "driver", "labels", "points"),
+            data,
+            "mechanism",
+        )
+        or LineDict()
+    )
     kind = mech.get("type")
     spec = KINDS.get(kind) if isinstance(kind, str) else None
     if spec is None:
@@ -443,9 +513,15 @@ def validate(data: dict, path: str) -> Problem:
     labels = _names_map(c, mech, "labels", bodies)
     point_names = _names_map(c, mech, "points", spec.points if spec else ())
     geometry: dict[str, Value] = {}
-    g = c.mapping(mech.get("geometry"), "mechanism.geometry",
-                  spec.required if spec else (), tuple(spec.optional) if spec else (), mech, "geometry")
-    for k in (g or {}):
+    g = c.mapping(
+        mech.get("geometry"),
+        "mechanism.geometry",
+        spec.required if spec else (),
+        tuple(spec.optional) if spec else (),
+        mech,
+        "geometry",
+    )
+    for k in g or {}:
         v = _value(c, g, k, f"mechanism.geometry.{k}", names)
         if v is not None:
             geometry[k] = v
@@ -480,9 +556,36 @@ def validate(data: dict, path: str) -> Problem:
     if c.errors:
         raise ErrorList(c.errors)
     lines = {k: data.lines.get(k, 0) for k in data} if isinstance(data, LineDict) else {}
-    return Problem(pid, title, source, tuple(tags), method, analysis, dims, kind, branch, driver,
-                   labels, point_names, geometry, inputs, params, loads, mass, gravity, weight_g,
-                   constraints, cases, statement, answers, published, figure, notes, path, lines)
+    return Problem(
+        pid,
+        title,
+        source,
+        tuple(tags),
+        method,
+        analysis,
+        dims,
+        kind,
+        branch,
+        driver,
+        labels,
+        point_names,
+        geometry,
+        inputs,
+        params,
+        loads,
+        mass,
+        gravity,
+        weight_g,
+        constraints,
+        cases,
+        statement,
+        answers,
+        published,
+        figure,
+        notes,
+        path,
+        lines,
+    )
 
 
 def _names_map(c: _Collector, mech: dict, key: str, allowed: tuple[str, ...]) -> dict[str, str]:
@@ -500,8 +603,14 @@ def _loads(c: _Collector, data: dict, names: set[str], bodies: set[str], points:
     seen: set[str] = set()
     for i, item in enumerate(node):
         w = f"loads[{i}]"
-        m = c.mapping(item, w, ("name", "body"), ("at", "along", "across", "magnitude", "angle",
-                                                 "relative_angle", "fx", "fy", "torque"), node, i)
+        m = c.mapping(
+            item,
+            w,
+            ("name", "body"),
+            ("at", "along", "across", "magnitude", "angle", "relative_angle", "fx", "fy", "torque"),
+            node,
+            i,
+        )
         if m is None:
             continue
         name = c.text(m, "name", f"{w}.name", "")
@@ -514,8 +623,10 @@ def _loads(c: _Collector, data: dict, names: set[str], bodies: set[str], points:
         at = m.get("at", "")
         if at and at not in points:
             c.err(m, "at", f"{w}.at", f"expected a point among {', '.join(sorted(points))}; got {_show(at)}")
-        vals = {k: _value(c, m, k, f"{w}.{k}", names) for k in
-                ("along", "across", "magnitude", "angle", "fx", "fy", "torque")}
+        vals = {
+            k: _value(c, m, k, f"{w}.{k}", names)
+            for k in ("along", "across", "magnitude", "angle", "fx", "fy", "torque")
+        }
         has_polar = vals["magnitude"] is not None
         has_xy = vals["fx"] is not None or vals["fy"] is not None
         if has_polar and has_xy:
@@ -528,8 +639,21 @@ def _loads(c: _Collector, data: dict, names: set[str], bodies: set[str], points:
         if not isinstance(rel, bool):
             c.err(m, "relative_angle", f"{w}.relative_angle", f"expected true or false, got {_show(rel)}")
             rel = False
-        out.append(LoadSpec(name, str(body), str(at), vals["along"] or 0.0, vals["across"] or 0.0,
-                            vals["magnitude"], vals["angle"], rel, vals["fx"], vals["fy"], vals["torque"]))
+        out.append(
+            LoadSpec(
+                name,
+                str(body),
+                str(at),
+                vals["along"] or 0.0,
+                vals["across"] or 0.0,
+                vals["magnitude"],
+                vals["angle"],
+                rel,
+                vals["fx"],
+                vals["fy"],
+                vals["torque"],
+            )
+        )
     return tuple(out)
 
 
@@ -548,16 +672,33 @@ def _mass(c: _Collector, data: dict, names: set[str], bodies: set[str], points: 
         at = m.get("at", "")
         if at and at not in points:
             c.err(m, "at", f"{w}.at", f"expected a point among {', '.join(sorted(points))}; got {_show(at)}")
-        out.append(MassSpec(body, vals["mass"], vals["weight"], vals["inertia"] or 0.0, str(at),
-                            vals["along"] or 0.0, vals["across"] or 0.0))
+        out.append(
+            MassSpec(
+                body,
+                vals["mass"],
+                vals["weight"],
+                vals["inertia"] or 0.0,
+                str(at),
+                vals["along"] or 0.0,
+                vals["across"] or 0.0,
+            )
+        )
     return tuple(out)
 
 
 def _constraints(c: _Collector, data: dict, names: set[str]) -> Constraints:
     node = data.get("constraints", {})
-    m = c.mapping(node, "constraints", (), ("transmission_min", "condition_max", "grashof",
-                                            "dead_centre_min", "answer_min_fraction", "require"),
-                  data, "constraints") or {}
+    m = (
+        c.mapping(
+            node,
+            "constraints",
+            (),
+            ("transmission_min", "condition_max", "grashof", "dead_centre_min", "answer_min_fraction", "require"),
+            data,
+            "constraints",
+        )
+        or {}
+    )
     req = []
     for i, item in enumerate(m.get("require", []) or []):
         r = c.mapping(item, f"constraints.require[{i}]", ("expr", "message"), (), m.get("require"), i)
@@ -567,14 +708,23 @@ def _constraints(c: _Collector, data: dict, names: set[str]) -> Constraints:
         try:
             unknown = expr.names(e) - names if isinstance(e, str) else {"<not text>"}
             if unknown:
-                c.err(r, "expr", f"constraints.require[{i}].expr", f"expected parameter names, got unknown {sorted(unknown)}")
+                c.err(
+                    r,
+                    "expr",
+                    f"constraints.require[{i}].expr",
+                    f"expected parameter names, got unknown {sorted(unknown)}",
+                )
         except expr.ExprError as exc:
             c.err(r, "expr", f"constraints.require[{i}].expr", str(exc))
         req.append((str(e), str(r.get("message", ""))))
     grashof = m.get("grashof")
     if grashof is not None and grashof not in ("crank-rocker", "double-crank", "grashof", "non-grashof"):
-        c.err(m, "grashof", "constraints.grashof",
-              f"expected crank-rocker, double-crank, grashof or non-grashof; got {_show(grashof)}")
+        c.err(
+            m,
+            "grashof",
+            "constraints.grashof",
+            f"expected crank-rocker, double-crank, grashof or non-grashof; got {_show(grashof)}",
+        )
     return Constraints(
         c.number(m, "transmission_min", "constraints.transmission_min", 0.0) or 0.0,
         c.number(m, "condition_max", "constraints.condition_max", 1e4, positive=True) or 1e4,
@@ -617,8 +767,7 @@ def _answers(c: _Collector, data: dict, method: str, cases: dict) -> tuple[Answe
     keys: set[str] = set()
     for i, item in enumerate(node):
         w = f"answers[{i}]"
-        m = c.mapping(item, w, ("key", "of", "unit", "description"),
-                      ("sign", "points", "tolerance", "case"), node, i)
+        m = c.mapping(item, w, ("key", "of", "unit", "description"), ("sign", "points", "tolerance", "case"), node, i)
         if m is None:
             continue
         key = m.get("key")
@@ -630,18 +779,37 @@ def _answers(c: _Collector, data: dict, method: str, cases: dict) -> tuple[Answe
         keys.add(key)
         of = m.get("of")
         if not isinstance(of, str) or not _RESULT.match(of):
-            c.err(m, "of", f"{w}.of", "expected a result such as driver, F[3,2].mag, aG[2].angle, "
-                                      f"h[3], driver@P; got {_show(of)}")
+            c.err(
+                m,
+                "of",
+                f"{w}.of",
+                f"expected a result such as driver, F[3,2].mag, aG[2].angle, h[3], driver@P; got {_show(of)}",
+            )
         unit = c.unit(m, "unit", f"{w}.unit")
         case = m.get("case")
         if case is not None and str(case) not in cases:
-            c.err(m, "case", f"{w}.case", f"expected one of the cases {', '.join(cases) or '(none defined)'}; got {_show(case)}")
+            c.err(
+                m,
+                "case",
+                f"{w}.case",
+                f"expected one of the cases {', '.join(cases) or '(none defined)'}; got {_show(case)}",
+            )
         pts = c.number(m, "points", f"{w}.points", 1.0)
         if pts is not None and pts < 0:
             c.err(m, "points", f"{w}.points", f"expected a number of at least 0, got {pts}")
         tol = _tolerance(c, m.get("tolerance"), f"{w}.tolerance", DEFAULT_TOLERANCE[method], m)
-        out.append(AnswerSpec(key, str(of), unit, c.text(m, "description", f"{w}.description", ""),
-                              str(m.get("sign", "")), pts or 0.0, tol, None if case is None else str(case)))
+        out.append(
+            AnswerSpec(
+                key,
+                str(of),
+                unit,
+                c.text(m, "description", f"{w}.description", ""),
+                str(m.get("sign", "")),
+                pts or 0.0,
+                tol,
+                None if case is None else str(case),
+            )
+        )
     return tuple(out)
 
 

@@ -41,7 +41,8 @@ def _mapping(loader: _Loader, node: yaml.MappingNode) -> LineDict:
         key = loader.construct_object(key_node, deep=True)
         if key in out:
             raise yaml.constructor.ConstructorError(
-                None, None, f"duplicate key {key!r} (first on line {out.lines[key]})", key_node.start_mark)
+                None, None, f"duplicate key {key!r} (first on line {out.lines[key]})", key_node.start_mark
+            )
         out[key] = loader.construct_object(value_node, deep=True)
         out.lines[key] = key_node.start_mark.line + 1
     return out
@@ -66,8 +67,9 @@ def load(path: Path | str) -> LineDict:
     try:
         text = path.read_text(encoding="utf-8-sig")
     except (OSError, UnicodeDecodeError) as exc:
-        raise ProblemError(f"expected a readable UTF-8 YAML file, got {exc.__class__.__name__}: {exc}",
-                           path=str(path)) from None
+        raise ProblemError(
+            f"expected a readable UTF-8 YAML file, got {exc.__class__.__name__}: {exc}", path=str(path)
+        ) from None
     try:
         data = yaml.load(text, Loader=_Loader)  # noqa: S506 - _Loader is a SafeLoader subclass
     except yaml.YAMLError as exc:

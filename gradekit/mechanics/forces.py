@@ -131,8 +131,16 @@ def body_states(link: Linkage, an: Analysis) -> dict[str, BodyState]:
     for name, b in link.bodies.items():
         mp = an.mass.get(name)
         g = load_point(link, name, mp.at, mp.along, mp.across) if mp else b.origin
-        out[name] = BodyState(float(b.angle.v), float(b.angle.d), float(b.angle.dd), g.pos(),
-                              g.vel(), g.acc(), mp.mass if mp else 0.0, mp.inertia if mp else 0.0)
+        out[name] = BodyState(
+            float(b.angle.v),
+            float(b.angle.d),
+            float(b.angle.dd),
+            g.pos(),
+            g.vel(),
+            g.acc(),
+            mp.mass if mp else 0.0,
+            mp.inertia if mp else 0.0,
+        )
     return out
 
 
@@ -155,8 +163,7 @@ def _known_forces(link: Linkage, an: Analysis, states: dict[str, BodyState]):
         if an.gravity is not None and st.mass:
             yield "gravity", name, g_pt, st.mass * np.asarray(an.gravity), 0.0, "gravity", f"W[{name}]"
         if an.dynamic and (st.mass or st.inertia):
-            yield (f"inertia:{name}", name, g_pt, st.inertia_force, st.inertia_couple, "inertia",
-                   f"Fi[{name}]")
+            yield (f"inertia:{name}", name, g_pt, st.inertia_force, st.inertia_couple, "inertia", f"Fi[{name}]")
 
 
 def solve(link: Linkage, an: Analysis, virtual: Linkage | None = None) -> Solution:
@@ -241,7 +248,7 @@ def solve(link: Linkage, an: Analysis, virtual: Linkage | None = None) -> Soluti
     total_x = X.sum(axis=1) if group_names else np.zeros(ncol)
 
     def result(x: np.ndarray, grp: str | None) -> GroupResult:
-        joints = {j.name: np.array(x[2 * k:2 * k + 2]) for k, j in enumerate(link.joints)}
+        joints = {j.name: np.array(x[2 * k : 2 * k + 2]) for k, j in enumerate(link.joints)}
         members = _members(link, an, states, known, joints, float(x[-1]), grp)
         return GroupResult(float(x[-1]), joints, members)
 
@@ -249,7 +256,12 @@ def solve(link: Linkage, an: Analysis, virtual: Linkage | None = None) -> Soluti
     groups = {g: result(X[:, i], g) for i, g in enumerate(group_names)}
     vw = _virtual_work(link, virtual or link, an, states, known)
     q = total.driver
-    denom = max(abs(q), vw[1], 1e-300)
+    # Relative to the driver, the work terms and the load level of the whole system (a load at a
+    # fixed pivot does no work but sets the size of the roundoff in every unknown).
+    load_level = float(np.abs(B * rs[:, None]).max()) * scale if B.size else 0.0
+    if drv.kind == "force":
+        load_level /= scale
+    denom = max(abs(q), vw[1], load_level, 1e-300)
     return Solution(link, an, total, groups, states, vw[0], abs(vw[0] - q) / denom, cond)
 
 
@@ -284,8 +296,7 @@ def _where(link: Linkage, ld: Load) -> np.ndarray:
     return load_point(link, ld.body, ld.at, ld.along, ld.across).pos()
 
 
-def _offset_force(name: str, body: str, point: np.ndarray, f: np.ndarray, couple: float,
-                  kind: str) -> AppliedForce:
+def _offset_force(name: str, body: str, point: np.ndarray, f: np.ndarray, couple: float, kind: str) -> AppliedForce:
     """Merge a force and a couple into one force with a shifted line of action."""
     f2 = float(f @ f)
     if couple and f2 > 0:
@@ -293,8 +304,7 @@ def _offset_force(name: str, body: str, point: np.ndarray, f: np.ndarray, couple
     return AppliedForce(name, body, point, f, kind)
 
 
-def _members(link: Linkage, an: Analysis, states, known, joints, driver: float,
-             grp: str | None) -> dict[str, Member]:
+def _members(link: Linkage, an: Analysis, states, known, joints, driver: float, grp: str | None) -> dict[str, Member]:
     acting: dict[str, list[AppliedForce]] = {n: [] for n in link.bodies}
     couples: dict[str, list[tuple[str, float]]] = {n: [] for n in link.bodies}
     for j in link.joints:
@@ -325,8 +335,9 @@ def _members(link: Linkage, an: Analysis, states, known, joints, driver: float,
         couples[drv.body].append(("driver", driver))
     else:
         jnt = next(j for j in link.joints if j.name == drv.joint)
-        acting[drv.body].append(AppliedForce("driver", drv.body, jnt.point.pos(),
-                                             driver * _unit(float(jnt.axis.v)), "driver"))
+        acting[drv.body].append(
+            AppliedForce("driver", drv.body, jnt.point.pos(), driver * _unit(float(jnt.axis.v)), "driver")
+        )
     out = {}
     for body in link.bodies:
         scale = max((float(np.hypot(*f.vector)) for f in acting[body]), default=0.0)

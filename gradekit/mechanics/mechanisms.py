@@ -57,9 +57,7 @@ def circle_point(p1: P, r1: float, p2: P, r2: float, branch: int, names: str, fm
     return p1 + P.polar(r1, angle)
 
 
-def slide_point(
-    pin: P, length: float, origin: P, axis: float, offset: float, branch: int, names: str, fmt: Fmt
-) -> P:
+def slide_point(pin: P, length: float, origin: P, axis: float, offset: float, branch: int, names: str, fmt: Fmt) -> P:
     """The point at *length* from *pin* on the line at *axis* through *origin* + *offset* (left normal)."""
     u = P.fixed(math.cos(axis), math.sin(axis))
     n = P.fixed(-math.sin(axis), math.cos(axis))
@@ -93,15 +91,25 @@ def single_crank(p: dict, m: Motion, branch: int = 1, fmt: Fmt = _mm) -> Linkage
     th = m.jet()
     pts = {"O2": o2, "A": o2 + P.polar(p["crank"], th)}
     bodies = {"crank": Body("crank", o2, th)}
-    return Linkage("crank", bodies, (_rev("O2", GROUND, "crank", pts),), pts, Driver("crank"), "crank",
-                   90.0, p["crank"], {"crank": p["crank"]})
+    return Linkage(
+        "crank",
+        bodies,
+        (_rev("O2", GROUND, "crank", pts),),
+        pts,
+        Driver("crank"),
+        "crank",
+        90.0,
+        p["crank"],
+        {"crank": p["crank"]},
+    )
 
 
 def fourbar(p: dict, m: Motion, branch: int = 1, fmt: Fmt = _mm) -> Linkage:
     """Four-bar O2-A-B-O4: crank O2A driven, coupler AB, rocker O4B, frame O2O4 at any angle."""
     o2 = P.fixed(p.get("x_O2", 0.0), p.get("y_O2", 0.0))
-    o4 = o2 + P.fixed(p["frame"] * math.cos(p.get("frame_angle", 0.0)),
-                      p["frame"] * math.sin(p.get("frame_angle", 0.0)))
+    o4 = o2 + P.fixed(
+        p["frame"] * math.cos(p.get("frame_angle", 0.0)), p["frame"] * math.sin(p.get("frame_angle", 0.0))
+    )
     th = m.jet()
     a = o2 + P.polar(p["crank"], th)
     b = circle_point(a, p["coupler"], o4, p["rocker"], branch, "coupler AB and rocker O4B", fmt)
@@ -118,14 +126,14 @@ def fourbar(p: dict, m: Motion, branch: int = 1, fmt: Fmt = _mm) -> Linkage:
         _rev("O4", GROUND, "rocker", pts),
     )
     lengths = {k: p[k] for k in ("crank", "coupler", "rocker", "frame")}
-    return Linkage("fourbar", bodies, joints, pts, Driver("crank"), "crank",
-                   _acute(b - a, b - o4), max(lengths.values()), lengths)
+    return Linkage(
+        "fourbar", bodies, joints, pts, Driver("crank"), "crank", _acute(b - a, b - o4), max(lengths.values()), lengths
+    )
 
 
 def _ram(pts: dict, pin: str, p: dict, origin: P, branch: int, fmt: Fmt, rod: str) -> P:
     axis = p.get("slide_angle", 0.0)
-    return slide_point(pts[pin], p[rod], origin, axis, p.get("offset", 0.0), branch,
-                       f"the {rod} from {pin}", fmt)
+    return slide_point(pts[pin], p[rod], origin, axis, p.get("offset", 0.0), branch, f"the {rod} from {pin}", fmt)
 
 
 def slider_crank(p: dict, m: Motion, branch: int = 1, fmt: Fmt = _mm, driver: str = "crank") -> Linkage:
@@ -149,8 +157,17 @@ def slider_crank(p: dict, m: Motion, branch: int = 1, fmt: Fmt = _mm, driver: st
     drv = Driver("crank") if driver == "crank" else Driver("slider", "force", "slide")
     u = P.polar(1.0, axis)
     lengths = {k: p[k] for k in ("crank", "rod")}
-    return Linkage("slider_crank", bodies, joints, pts, drv, "crank",
-                   90.0 - _acute(pts["B"] - pts["A"], u), max(lengths.values()), lengths)
+    return Linkage(
+        "slider_crank",
+        bodies,
+        joints,
+        pts,
+        drv,
+        "crank",
+        90.0 - _acute(pts["B"] - pts["A"], u),
+        max(lengths.values()),
+        lengths,
+    )
 
 
 def _slotted(p: dict, m: Motion) -> tuple[dict, dict, list]:
@@ -160,8 +177,9 @@ def _slotted(p: dict, m: Motion) -> tuple[dict, dict, list]:
     th = m.jet()
     a = o2 + P.polar(p["crank"], th)
     if abs(p["frame"] - p["crank"]) < 1e-9 * max(p["frame"], p["crank"]):
-        raise GeometryError("cannot be assembled: the crank pin passes through the lever pivot "
-                            "(crank = frame distance O2O4)")
+        raise GeometryError(
+            "cannot be assembled: the crank pin passes through the lever pivot (crank = frame distance O2O4)"
+        )
     lever_angle = (a - o4).angle()
     pts = {"O2": o2, "A": a, "O4": o4, "C": o4 + P.polar(p["lever"], lever_angle)}
     bodies = {
@@ -182,15 +200,15 @@ def slotted_lever(p: dict, m: Motion, branch: int = 1, fmt: Fmt = _mm) -> Linkag
     """Crank and slotted lever (inverted slider crank): a block on crank pin A slides in lever O4C."""
     pts, bodies, joints = _slotted(p, m)
     lengths = {k: p[k] for k in ("crank", "frame", "lever")}
-    return Linkage("slotted_lever", bodies, tuple(joints), pts, Driver("crank"), "crank", 90.0,
-                   max(lengths.values()), lengths)
+    return Linkage(
+        "slotted_lever", bodies, tuple(joints), pts, Driver("crank"), "crank", 90.0, max(lengths.values()), lengths
+    )
 
 
 def _add_ram(pts: dict, bodies: dict, joints: list, p: dict, origin: P, branch: int, fmt: Fmt) -> float:
     """Attach link C-D and ram D (sliding on ground) to point C; return the ram transmission angle."""
     axis = Jet(p.get("slide_angle", 0.0))
-    pts["D"] = slide_point(pts["C"], p["link"], origin, axis.v, p["ram_offset"], branch,
-                           "the link CD", fmt)
+    pts["D"] = slide_point(pts["C"], p["link"], origin, axis.v, p["ram_offset"], branch, "the link CD", fmt)
     bodies["link"] = Body("link", pts["C"], (pts["D"] - pts["C"]).angle())
     bodies["ram"] = Body("ram", pts["D"], axis)
     joints += [
@@ -205,16 +223,20 @@ def quick_return(p: dict, m: Motion, branch: int = 1, fmt: Fmt = _mm, kind: str 
     """Whitworth (frame < crank, lever turns fully) or crank-shaper (frame > crank, lever rocks):
     slotted lever O4C, link CD and ram D on a slide line ``ram_offset`` from O4."""
     if kind == "whitworth" and not p["frame"] < p["crank"]:
-        raise GeometryError(f"not a Whitworth mechanism: the frame O2O4 ({fmt(p['frame'])}) must "
-                            f"be shorter than the crank ({fmt(p['crank'])})")
+        raise GeometryError(
+            f"not a Whitworth mechanism: the frame O2O4 ({fmt(p['frame'])}) must "
+            f"be shorter than the crank ({fmt(p['crank'])})"
+        )
     if kind == "crank_shaper" and not p["frame"] > p["crank"]:
-        raise GeometryError(f"not a crank-shaper: the frame O2O4 ({fmt(p['frame'])}) must be "
-                            f"longer than the crank ({fmt(p['crank'])})")
+        raise GeometryError(
+            f"not a crank-shaper: the frame O2O4 ({fmt(p['frame'])}) must be longer than the crank ({fmt(p['crank'])})"
+        )
     pts, bodies, joints = _slotted(p, m)
     mu = _add_ram(pts, bodies, joints, p, pts["O4"], branch, fmt)
     lengths = {k: p[k] for k in ("crank", "frame", "lever", "link")}
-    return Linkage(kind, bodies, tuple(joints), pts, Driver("crank"), "crank", mu,
-                   max(abs(v) for v in lengths.values()), lengths)
+    return Linkage(
+        kind, bodies, tuple(joints), pts, Driver("crank"), "crank", mu, max(abs(v) for v in lengths.values()), lengths
+    )
 
 
 def fourbar_quick_return(p: dict, m: Motion, branch: int = 1, fmt: Fmt = _mm) -> Linkage:
@@ -224,8 +246,9 @@ def fourbar_quick_return(p: dict, m: Motion, branch: int = 1, fmt: Fmt = _mm) ->
     rocker = bodies["rocker"]
     pts["C"] = rocker.origin + P.polar(p["arm"], rocker.angle)
     axis = Jet(p.get("slide_angle", 0.0))
-    pts["D"] = slide_point(pts["C"], p["link"], pts["O4"], axis.v, p["ram_offset"],
-                           p.get("ram_branch", 1), "the link CD", fmt)
+    pts["D"] = slide_point(
+        pts["C"], p["link"], pts["O4"], axis.v, p["ram_offset"], p.get("ram_branch", 1), "the link CD", fmt
+    )
     bodies["link"] = Body("link", pts["C"], (pts["D"] - pts["C"]).angle())
     bodies["ram"] = Body("ram", pts["D"], axis)
     joints += [
@@ -235,8 +258,17 @@ def fourbar_quick_return(p: dict, m: Motion, branch: int = 1, fmt: Fmt = _mm) ->
     ]
     mu = min(base.transmission, 90.0 - _acute(pts["D"] - pts["C"], P.polar(1.0, axis)))
     lengths = dict(base.lengths, arm=p["arm"], link=p["link"])
-    return Linkage("fourbar_quick_return", bodies, tuple(joints), pts, Driver("crank"), "crank",
-                   mu, max(abs(v) for v in lengths.values()), lengths)
+    return Linkage(
+        "fourbar_quick_return",
+        bodies,
+        tuple(joints),
+        pts,
+        Driver("crank"),
+        "crank",
+        mu,
+        max(abs(v) for v in lengths.values()),
+        lengths,
+    )
 
 
 @dataclass(frozen=True)
@@ -254,33 +286,53 @@ class Kind:
 _POS = {"x_O2": 0.0, "y_O2": 0.0}
 KINDS: dict[str, Kind] = {
     "crank": Kind(single_crank, ("crank",), dict(_POS), ("crank",), ("O2", "A")),
-    "fourbar": Kind(fourbar, ("crank", "coupler", "rocker", "frame"),
-                    {**_POS, "frame_angle": 0.0}, ("crank", "coupler", "rocker"),
-                    ("O2", "A", "B", "O4")),
-    "slider_crank": Kind(slider_crank, ("crank", "rod"),
-                         {**_POS, "offset": 0.0, "slide_angle": 0.0}, ("crank", "rod", "slider"),
-                         ("O2", "A", "B"), ("crank", "slider")),
-    "slotted_lever": Kind(slotted_lever, ("crank", "frame", "lever"),
-                          {**_POS, "frame_angle": -math.pi / 2}, ("crank", "block", "lever"),
-                          ("O2", "A", "O4", "C")),
-    "whitworth": Kind(lambda p, m, branch=1, fmt=_mm: quick_return(p, m, branch, fmt, "whitworth"),
-                      ("crank", "frame", "lever", "link", "ram_offset"),
-                      {**_POS, "frame_angle": -math.pi / 2, "slide_angle": 0.0},
-                      ("crank", "block", "lever", "link", "ram"), ("O2", "A", "O4", "C", "D")),
-    "crank_shaper": Kind(lambda p, m, branch=1, fmt=_mm: quick_return(p, m, branch, fmt, "crank_shaper"),
-                         ("crank", "frame", "lever", "link", "ram_offset"),
-                         {**_POS, "frame_angle": -math.pi / 2, "slide_angle": 0.0},
-                         ("crank", "block", "lever", "link", "ram"), ("O2", "A", "O4", "C", "D")),
-    "fourbar_quick_return": Kind(fourbar_quick_return,
-                                 ("crank", "coupler", "rocker", "frame", "arm", "link", "ram_offset"),
-                                 {**_POS, "frame_angle": 0.0, "slide_angle": 0.0, "ram_branch": 1.0},
-                                 ("crank", "coupler", "rocker", "link", "ram"),
-                                 ("O2", "A", "B", "O4", "C", "D")),
+    "fourbar": Kind(
+        fourbar,
+        ("crank", "coupler", "rocker", "frame"),
+        {**_POS, "frame_angle": 0.0},
+        ("crank", "coupler", "rocker"),
+        ("O2", "A", "B", "O4"),
+    ),
+    "slider_crank": Kind(
+        slider_crank,
+        ("crank", "rod"),
+        {**_POS, "offset": 0.0, "slide_angle": 0.0},
+        ("crank", "rod", "slider"),
+        ("O2", "A", "B"),
+        ("crank", "slider"),
+    ),
+    "slotted_lever": Kind(
+        slotted_lever,
+        ("crank", "frame", "lever"),
+        {**_POS, "frame_angle": -math.pi / 2},
+        ("crank", "block", "lever"),
+        ("O2", "A", "O4", "C"),
+    ),
+    "whitworth": Kind(
+        lambda p, m, branch=1, fmt=_mm: quick_return(p, m, branch, fmt, "whitworth"),
+        ("crank", "frame", "lever", "link", "ram_offset"),
+        {**_POS, "frame_angle": -math.pi / 2, "slide_angle": 0.0},
+        ("crank", "block", "lever", "link", "ram"),
+        ("O2", "A", "O4", "C", "D"),
+    ),
+    "crank_shaper": Kind(
+        lambda p, m, branch=1, fmt=_mm: quick_return(p, m, branch, fmt, "crank_shaper"),
+        ("crank", "frame", "lever", "link", "ram_offset"),
+        {**_POS, "frame_angle": -math.pi / 2, "slide_angle": 0.0},
+        ("crank", "block", "lever", "link", "ram"),
+        ("O2", "A", "O4", "C", "D"),
+    ),
+    "fourbar_quick_return": Kind(
+        fourbar_quick_return,
+        ("crank", "coupler", "rocker", "frame", "arm", "link", "ram_offset"),
+        {**_POS, "frame_angle": 0.0, "slide_angle": 0.0, "ram_branch": 1.0},
+        ("crank", "coupler", "rocker", "link", "ram"),
+        ("O2", "A", "B", "O4", "C", "D"),
+    ),
 }
 
 
-def build(kind: str, params: dict, motion: Motion, branch: int = 1, fmt: Fmt = _mm,
-          driver: str = "crank") -> Linkage:
+def build(kind: str, params: dict, motion: Motion, branch: int = 1, fmt: Fmt = _mm, driver: str = "crank") -> Linkage:
     """Build one position of mechanism *kind*; raises `GeometryError` when it cannot assemble."""
     spec = KINDS[kind]
     full = {**spec.optional, **params}
@@ -292,6 +344,8 @@ def build(kind: str, params: dict, motion: Motion, branch: int = 1, fmt: Fmt = _
     for name, pt in link.points.items():
         vals = (pt.x.v, pt.y.v, pt.x.d, pt.y.d, pt.x.dd, pt.y.dd)
         if not all(math.isfinite(float(v)) for v in vals):
-            raise GeometryError(f"at a limit (toggle) position: the motion of point {name} is "
-                                "not defined there; choose another crank angle")
+            raise GeometryError(
+                f"at a limit (toggle) position: the motion of point {name} is "
+                "not defined there; choose another crank angle"
+            )
     return link
