@@ -1,0 +1,96 @@
+"""Figures of one student's variant: the assignment scene and the instructor's key figures.
+
+Figure functions return a `matplotlib.figure.Figure` and never save or show it; `to_svg`,
+`to_png` and `write_figures` are the only places that serialise. matplotlib is imported here (and
+only here, never by the solver) with the Agg backend chosen lazily.
+"""
+
+from __future__ import annotations
+
+import io
+from pathlib import Path
+
+import matplotlib
+
+from gradekit.pipeline import Result
+
+SVG_RC = {"svg.fonttype": "none", "svg.hashsalt": "gradekit", "svg.image_inline": True}
+
+
+def scene(result: Result, case: str | None = None, *, true_scale: bool = False):
+    """The assignment figure: the student's mechanism with the given values, no solved answer.
+
+    Args:
+        result: the solved variant (`gradekit.sampling.variant(...).result`).
+        case: the case (position) to draw; the first when None.
+        true_scale: draw at ``problem.figure.true_scale`` (paper length per mechanism length) so
+            the SVG placed at its natural size measures true, with a scale bar and the printed scale.
+    """
+    from gradekit.figures.assignment import build_scene
+    from gradekit.figures.canvas import render
+
+    return render(build_scene(result, case, true_scale))
+
+
+def key_figures(result: Result) -> list[tuple[str, str, object]]:
+    """The answer-key figures of a variant as (slug, caption, figure), in document order."""
+    from gradekit.figures.key import member_figures
+
+    return member_figures(result)
+
+
+def to_svg(fig) -> bytes:
+    """SVG bytes of *fig* (text kept as text), identical for identical figures; closes *fig*."""
+    buf = io.BytesIO()
+    with matplotlib.rc_context(SVG_RC):
+        fig.savefig(buf, format="svg", metadata={"Date": None})
+    _close(fig)
+    return buf.getvalue()
+
+
+def to_png(fig, dpi: int = 110) -> bytes:
+    """PNG bytes of *fig* at *dpi* (previews); closes *fig*."""
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=dpi, metadata={"Software": None})
+    _close(fig)
+    return buf.getvalue()
+
+
+def write_figures(result: Result, out_dir: Path, fmt: str = "svg") -> list[Path]:
+    """Write the scene (and, for a true-scale problem, its true-scale drawing) and every key figure.
+
+    Files are ``<problem id>-<slug>.<fmt>``; returns their paths in order.
+    """
+    if fmt not in ("svg", "png"):
+        raise ValueError(f"expected svg or png, got {fmt!r}")
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    write = to_svg if fmt == "svg" else to_png
+    pid = result.problem.id
+    figs = [("scene", scene(result))]
+    if result.problem.figure.true_scale:
+        figs.append(("scene-true-scale", scene(result, true_scale=True)))
+    if len(result.cases) > 1:
+        figs += [(f"scene-{c.name}", scene(result, c.name)) for c in result.cases[1:]]
+    paths = []
+    for slug, fig in figs:
+        p = out_dir / f"{pid}-{slug}.{fmt}"
+        p.write_bytes(write(fig))
+        paths.append(p)
+    for slug, _caption, fig in key_figures(result):
+        p = out_dir / f"{pid}-{slug}.{fmt}"
+        p.write_bytes(write(fig))
+        paths.append(p)
+    return paths
+
+
+def _close(fig) -> None:
+    # Figures made here are not registered with pyplot; a pyplot figure is closed there too.
+    import sys
+
+    plt = sys.modules.get("matplotlib.pyplot")
+    if plt is not None and plt.fignum_exists(getattr(fig, "number", -1)):
+        plt.close(fig)
+
+
+__all__ = ["scene", "key_figures", "to_svg", "to_png", "write_figures"]

@@ -1,0 +1,298 @@
+"""A display list in paper points with a collision-avoiding label placer, rendered to one Figure.
+
+Everything is laid out in points (1/72 in, y up) before matplotlib is touched: the extent of the
+drawing, labels included, is then known exactly, so the figure is sized to it with the axes filling
+it (data unit = 1 pt, equal aspect, exact limits) — no tight bbox, no constrained layout, and a
+true-scale drawing prints at its stated scale. Text sizes come from the font's advance widths
+(FreeType, no renderer), so placing labels costs microseconds.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from functools import lru_cache
+
+import numpy as np
+
+FONT = "DejaVu Sans"
+SIZE = 8.0
+LINE_H = 1.17  # text box height per font size (ascent + descent of DejaVu Sans)
+
+# Okabe–Ito, the colour-blind-safe palette
+BLACK = "#000000"
+ORANGE = "#E69F00"
+SKY = "#56B4E9"
+GREEN = "#009E73"
+YELLOW = "#F0E442"
+BLUE = "#0072B2"
+VERMILION = "#D55E00"
+PURPLE = "#CC79A7"
+GREY = "#777777"
+LIGHT = "#D9D9D9"
+
+
+@lru_cache(maxsize=1)
+def _font():
+    from matplotlib import font_manager
+    from matplotlib.ft2font import FT2Font
+
+    return FT2Font(font_manager.findfont(FONT))
+
+
+@lru_cache(maxsize=4096)
+def text_size(text: str, size: float = SIZE) -> tuple[float, float]:
+    """Width and height in points of one line of *text* (advance widths, no renderer)."""
+    f = _font()
+    f.set_size(size, 72)
+    lines = text.split("\n")
+    w = 0.0
+    for line in lines:
+        f.set_text(line, 0.0)
+        w = max(w, f.get_width_height()[0] / 64.0)
+    return w + 1.0, size * LINE_H * len(lines)
+
+
+@dataclass
+class Item:
+    """One primitive: kind and its arguments, all coordinates in points."""
+
+    kind: str
+    xy: np.ndarray
+    style: dict = field(default_factory=dict)
+
+
+def _seg_hits_box(p: np.ndarray, q: np.ndarray, box: tuple[float, float, float, float]) -> bool:
+    """Whether segment p–q meets the axis-aligned box (x0, y0, x1, y1) (Liang–Barsky)."""
+    x0, y0, x1, y1 = box
+    if max(p[0], q[0]) < x0 or min(p[0], q[0]) > x1 or max(p[1], q[1]) < y0 or min(p[1], q[1]) > y1:
+        return False
+    dx, dy = q[0] - p[0], q[1] - p[1]
+    t0, t1 = 0.0, 1.0
+    for pp, qq in ((-dx, p[0] - x0), (dx, x1 - p[0]), (-dy, p[1] - y0), (dy, y1 - p[1])):
+        if pp == 0:
+            if qq < 0:
+                return False
+            continue
+        t = qq / pp
+        if pp < 0:
+            t0 = max(t0, t)
+        else:
+            t1 = min(t1, t)
+        if t0 > t1:
+            return False
+    return True
+
+
+class Canvas:
+    """Primitives in points plus the obstacles labels must avoid."""
+
+    def __init__(self) -> None:
+        self.items: list[Item] = []
+        self.segments: list[tuple[np.ndarray, np.ndarray, float]] = []  # p, q, half width
+        self.boxes: list[tuple[float, float, float, float]] = []  # placed labels and solid marks
+
+    # -- primitives -------------------------------------------------------------------------
+    def line(self, pts, color: str = BLACK, lw: float = 1.0, ls: str = "-", gid: str | None = None,
+             obstacle: bool = True, z: float = 2.0, cap: str = "round") -> None:
+        xy = np.asarray(pts, float).reshape(-1, 2)
+        self.items.append(Item("line", xy, dict(color=color, lw=lw, ls=ls, gid=gid, z=z, cap=cap)))
+        if obstacle:
+            for a, b in zip(xy[:-1], xy[1:], strict=True):
+                self.segments.append((a, b, lw / 2 + 1.0))
+
+    def polygon(self, pts, fc: str = "white", ec: str = BLACK, lw: float = 1.0, z: float = 3.0,
+                gid: str | None = None, obstacle: bool = True) -> None:
+        xy = np.asarray(pts, float).reshape(-1, 2)
+        self.items.append(Item("polygon", xy, dict(fc=fc, ec=ec, lw=lw, z=z, gid=gid)))
+        if obstacle:
+            self.boxes.append((*xy.min(axis=0) - 1.0, *xy.max(axis=0) + 1.0))
+
+    def circle(self, c, r: float, fc: str = "white", ec: str = BLACK, lw: float = 1.0, z: float = 5.0,
+               gid: str | None = None, obstacle: bool = True) -> None:
+        t = np.linspace(0, 2 * math.pi, 25)
+        c = np.asarray(c, float)
+        self.polygon(c + r * np.c_[np.cos(t), np.sin(t)], fc, ec, lw, z, gid, obstacle)
+
+    def arrow(self, tail, head, color: str = BLACK, lw: float = 1.3, head_len: float = 7.0,
+              gid: str | None = None, z: float = 6.0, ls: str = "-") -> None:
+        tail, head = np.asarray(tail, float), np.asarray(head, float)
+        d = head - tail
+        n = float(np.hypot(*d))
+        if n < 1e-9:
+            return
+        u = d / n
+        hl = min(head_len, 0.6 * n)
+        base = head - u * hl
+        w = np.array([-u[1], u[0]]) * hl * 0.36
+        self.line([tail, base + u * 0.5], color, lw, ls, gid, z=z, cap="butt")
+        self.polygon([head, base + w, base - w], color, color, 0.5, z, None)
+
+    def arc(self, c, r: float, a0: float, a1: float, color: str = BLACK, lw: float = 1.0,
+            head: bool = True, gid: str | None = None, z: float = 6.0, ls: str = "-") -> None:
+        """A circular arc from angle *a0* to *a1* (radians, CCW if a1 > a0) with an arrowhead at a1."""
+        c = np.asarray(c, float)
+        n = max(8, int(abs(a1 - a0) / 0.08))
+        hl = 6.0
+        trim = min(abs(a1 - a0) * 0.45, hl / r) if head else 0.0
+        sgn = 1.0 if a1 >= a0 else -1.0
+        t = np.linspace(a0, a1 - sgn * trim, n)
+        self.line(c + r * np.c_[np.cos(t), np.sin(t)], color, lw, ls, gid, z=z, cap="butt")
+        if head:
+            tip = c + r * np.array([math.cos(a1), math.sin(a1)])
+            back = c + r * np.array([math.cos(a1 - sgn * trim), math.sin(a1 - sgn * trim)])
+            self.arrow(back - (tip - back) * 0.01, tip, color, lw, head_len=hl, z=z)
+
+    def text(self, xy, s: str, color: str = BLACK, size: float = SIZE, ha: str = "center",
+             gid: str | None = None, weight: str = "normal", obstacle: bool = True) -> None:
+        """Text centred (vertically) at *xy*, no placement; *ha* as in matplotlib."""
+        xy = np.asarray(xy, float)
+        w, h = text_size(s, size)
+        x0 = xy[0] - {"center": w / 2, "left": 0.0, "right": w}[ha]
+        self.items.append(Item("text", xy, dict(s=s, color=color, size=size, ha=ha, gid=gid, weight=weight)))
+        if obstacle:
+            self.boxes.append((x0, xy[1] - h / 2, x0 + w, xy[1] + h / 2))
+
+    # -- labels -----------------------------------------------------------------------------
+    def free(self, box: tuple[float, float, float, float], pad: float = 1.5) -> float:
+        """Penalty of placing a label at *box*: 0 when it touches no label, mark or line."""
+        x0, y0, x1, y1 = box
+        pen = 0.0
+        for b in self.boxes:
+            ox = min(x1, b[2]) - max(x0, b[0]) + pad
+            oy = min(y1, b[3]) - max(y0, b[1]) + pad
+            if ox > 0 and oy > 0:
+                pen += 10.0 + ox * oy
+        for p, q, hw in self.segments:
+            if _seg_hits_box(p, q, (x0 - hw, y0 - hw, x1 + hw, y1 + hw)):
+                pen += 25.0
+        return pen
+
+    def label(self, s: str, anchors, color: str = BLACK, size: float = SIZE, clear: float = 4.0,
+              prefer=None, gid: str | None = None, steps=(0.0, 5.0, 12.0, 22.0, 36.0)) -> np.ndarray:
+        """Place *s* next to the first anchor that has room; return the text centre.
+
+        Candidates are boxes touching a circle of radius *clear* (+ step) around each anchor in
+        16 directions, the *prefer* direction (a vector) first; the first candidate that touches
+        nothing wins, else the one with the least overlap.
+        """
+        w, h = text_size(s, size)
+        anchors = [np.asarray(a, float) for a in (anchors if np.ndim(anchors) == 2 else [anchors])]
+        dirs = [(math.cos(k * math.pi / 8), math.sin(k * math.pi / 8)) for k in range(16)]
+        if prefer is not None:
+            pv = np.asarray(prefer, float)
+            pn = float(np.hypot(*pv))
+            if pn > 0:
+                pv = pv / pn
+                dirs.sort(key=lambda d: -(d[0] * pv[0] + d[1] * pv[1]))
+        best, best_pen = None, math.inf
+        for step in steps:
+            for a in anchors:
+                for dx, dy in dirs:
+                    r = clear + step
+                    # box centre so that the box just clears the circle of radius r in direction d
+                    k = min(w / 2 / abs(dx) if dx else math.inf, h / 2 / abs(dy) if dy else math.inf)
+                    cx, cy = a[0] + dx * (r + k), a[1] + dy * (r + k)
+                    box = (cx - w / 2, cy - h / 2, cx + w / 2, cy + h / 2)
+                    pen = self.free(box)
+                    if pen == 0.0:
+                        best = (cx, cy)
+                        break
+                    pen += step * 0.5
+                    if pen < best_pen:
+                        best, best_pen = (cx, cy), pen
+                else:
+                    continue
+                break
+            else:
+                continue
+            break
+        assert best is not None
+        self.text(best, s, color, size, gid=gid)
+        return np.asarray(best)
+
+    # -- composition ------------------------------------------------------------------------
+    def extent(self) -> tuple[float, float, float, float]:
+        pts = [it.xy.reshape(-1, 2) for it in self.items if it.kind != "text"]
+        lo = np.min([p.min(axis=0) for p in pts], axis=0) if pts else np.zeros(2)
+        hi = np.max([p.max(axis=0) for p in pts], axis=0) if pts else np.zeros(2)
+        x0, y0, x1, y1 = float(lo[0]), float(lo[1]), float(hi[0]), float(hi[1])
+        for it in self.items:
+            if it.kind == "text":
+                w, h = text_size(it.style["s"], it.style["size"])
+                left = it.xy[0] - {"center": w / 2, "left": 0.0, "right": w}[it.style["ha"]]
+                x0, x1 = min(x0, left), max(x1, left + w)
+                y0, y1 = min(y0, it.xy[1] - h / 2), max(y1, it.xy[1] + h / 2)
+        return x0, y0, x1, y1
+
+    def shift(self, d) -> None:
+        d = np.asarray(d, float)
+        for it in self.items:
+            it.xy = it.xy + d
+        self.segments = [(p + d, q + d, hw) for p, q, hw in self.segments]
+        self.boxes = [(b[0] + d[0], b[1] + d[1], b[2] + d[0], b[3] + d[1]) for b in self.boxes]
+
+    def absorb(self, other: Canvas) -> None:
+        self.items += other.items
+        self.segments += other.segments
+        self.boxes += other.boxes
+
+
+def row(panels: list[Canvas], gap: float = 28.0) -> Canvas:
+    """Panels side by side, bottoms aligned, in one canvas."""
+    out = Canvas()
+    x = 0.0
+    for p in panels:
+        x0, y0, x1, _ = p.extent()
+        p.shift((x - x0, -y0))
+        out.absorb(p)
+        x += x1 - x0 + gap
+    return out
+
+
+def render(cv: Canvas, margin: float = 6.0, extent: tuple[float, float, float, float] | None = None):
+    """The matplotlib Figure of *cv*: sized to its extent plus *margin* points, axes filling it."""
+    import sys
+
+    import matplotlib
+
+    if "matplotlib.pyplot" not in sys.modules:
+        matplotlib.use("Agg")  # no GUI backend is ever needed; pyplot users keep theirs
+    from matplotlib.collections import LineCollection
+    from matplotlib.figure import Figure
+    from matplotlib.patches import Polygon
+
+    x0, y0, x1, y1 = extent or cv.extent()
+    x0, y0, x1, y1 = x0 - margin, y0 - margin, x1 + margin, y1 + margin
+    W, H = x1 - x0, y1 - y0
+    fig = Figure(figsize=(W / 72.0, H / 72.0), dpi=72)
+    ax = fig.add_axes((0.0, 0.0, 1.0, 1.0))
+    ax.set_xlim(x0, x1)
+    ax.set_ylim(y0, y1)
+    ax.set_aspect("equal", adjustable="box")
+    ax.set_axis_off()
+    pt = 1.0  # line widths are in points already; data unit = 1 pt
+    plain: dict[tuple, list[np.ndarray]] = {}
+    for it in cv.items:
+        st = it.style
+        if it.kind == "line":
+            if st["gid"] is None:
+                plain.setdefault((st["color"], st["lw"], st["ls"], st["z"], st["cap"]), []).append(it.xy)
+                continue
+            (ln,) = ax.plot(it.xy[:, 0], it.xy[:, 1], color=st["color"], lw=st["lw"] * pt, ls=st["ls"],
+                            zorder=st["z"], solid_capstyle=st["cap"], dash_capstyle="butt")
+            ln.set_gid(st["gid"])
+        elif it.kind == "polygon":
+            poly = Polygon(it.xy, closed=True, fc=st["fc"], ec=st["ec"], lw=st["lw"], zorder=st["z"])
+            if st["gid"]:
+                poly.set_gid(st["gid"])
+            ax.add_patch(poly)
+        elif it.kind == "text":
+            t = ax.text(it.xy[0], it.xy[1], st["s"], color=st["color"], fontsize=st["size"], ha=st["ha"],
+                        va="center", family=FONT, zorder=8, weight=st["weight"])
+            t.set_gid(st["gid"])
+    for (color, lw, ls, z, cap), segs in plain.items():
+        lc = LineCollection(segs, colors=color, linewidths=lw, linestyles=ls, zorder=z, capstyle=cap)
+        ax.add_collection(lc)
+    fig._gradekit_origin = (x0, y0)  # paper position of the figure's lower-left corner, in points
+    return fig
