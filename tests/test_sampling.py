@@ -1,0 +1,67 @@
+"""Per-student values: deterministic, rounded as printed, distinct across a class, pinned for one student."""
+
+from __future__ import annotations
+
+import pytest
+
+from gradekit.bank.schema import load_problem
+from gradekit.errors import SamplingError
+from gradekit.sampling import class_variants, derive_seed, variant
+
+EX51 = "problem_bank/ch5_ex5_1_slider_crank_static.yaml"
+
+
+def test_seed_is_sha256_of_the_identifiers():
+    a = derive_seed("MEG373", "hw5", "1001", "ch5-ex5-1")
+    assert a == derive_seed("MEG373", "hw5", "1001", "ch5-ex5-1")
+    assert a != derive_seed("MEG373", "hw5", "1002", "ch5-ex5-1")
+    assert a != derive_seed("MEG373", "hw6", "1001", "ch5-ex5-1")
+    assert a != derive_seed("MEG373", "hw5", "1001", "ch5-ex5-1", redraw=1)
+
+
+def test_pinned_values_of_one_known_student():
+    """Same student -> same values on any machine (SHA-256 + numpy PCG64); changing this is a breaking change."""
+    p = load_problem(EX51)
+    v = variant(p, course="MEG373", salt="hw5", student="s001")
+    assert v.values == {"r": 33.0, "l": 105.0, "phi": 65.0, "P": 45.0}
+    assert [round(a.value, 4) for a in v.result.answers] == [13.3717, 46.9447, -1.5324]
+
+
+def test_values_are_rounded_as_printed_and_inside_ranges():
+    p = load_problem(EX51)
+    for i in range(50):
+        v = variant(p, course="MEG373", salt="x", student=f"s{i}")
+        for name, value in v.values.items():
+            par = p.parameters[name]
+            assert par.low <= value <= par.high
+            assert abs(value / par.step - round(value / par.step)) < 1e-9
+
+
+def test_published_variant_uses_the_printed_values():
+    p = load_problem(EX51)
+    v = variant(p)
+    assert v.values == {"r": 30, "l": 70, "phi": 45, "P": 40}
+
+
+def test_a_class_of_300_gets_300_distinct_variants_and_redraw_touches_no_one_else():
+    p = load_problem(EX51)
+    ids = [f"{1000 + i}" for i in range(300)]
+    cls = class_variants(p, "MEG373", "hw5", ids)
+    assert len({tuple(sorted(v.values.items())) for v in cls.values()}) == 300
+    again = class_variants(p, "MEG373", "hw5", ids)
+    assert all(again[s].values == cls[s].values for s in ids)
+    # re-drawing one student changes that student only
+    redrawn = variant(p, course="MEG373", salt="hw5", student="1005", redraw=cls["1005"].redraw + 1)
+    assert redrawn.values != cls["1005"].values
+    for s in ids:
+        if cls[s].redraw == 0:
+            assert variant(p, course="MEG373", salt="hw5", student=s).values == cls[s].values
+
+
+def test_impossible_constraints_name_the_constraint_that_rejected_most(tmp_path):
+    text = open(EX51, encoding="utf-8").read().replace('l >= 2.2*r', 'l >= 20*r')
+    f = tmp_path / "bad.yaml"
+    f.write_text(text, encoding="utf-8")
+    p = load_problem(f)
+    with pytest.raises(SamplingError, match=r"constraint 'require: the rod is at least 2.2 times the crank'"):
+        variant(p, student="x", max_draws=50)
