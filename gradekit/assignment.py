@@ -242,5 +242,56 @@ def check_manifest(asg: Assignment, path: Path) -> list[str]:
     return notes
 
 
-def seeds_of(asg: Assignment, student_id: str) -> dict[str, int]:
-    return {it.label: derive_seed(asg.course, asg.salt, student_id, it.problem.id) for it in asg.items}
+def seeds_of(asg: Assignment, student_id: str, variants: dict[str, Variant] | None = None) -> dict[str, dict]:
+    """Per item: the seed and re-draw counter of a student's variant (for the manifest)."""
+    out = {}
+    for it in asg.items:
+        redraw = variants[it.label].redraw if variants else 0
+        out[it.label] = {"seed": derive_seed(asg.course, asg.salt, student_id, it.problem.id, redraw), "redraw": redraw}
+    return out
+
+
+def class_keys(
+    asg: Assignment,
+    student_ids: list[str],
+    redraws: dict[str, dict[str, int]] | None = None,
+    with_mistakes: bool = True,
+) -> tuple[list[KeyEntry], dict[str, dict[str, Variant]]]:
+    """Every student's variants and key entries, no two students alike within an item.
+
+    Args:
+        asg: the assignment.
+        student_ids: the roster's ids, in roster order (later students are re-drawn on a clash).
+        redraws: ``{student: {label: redraw}}`` from a manifest, to reproduce generation exactly.
+        with_mistakes: re-solve the catalogued mistakes for diagnosis.
+
+    Returns:
+        (key entries, ``{student: {label: Variant}}``).
+    """
+    from gradekit.sampling import class_variants
+
+    variants: dict[str, dict[str, Variant]] = {s: {} for s in student_ids}
+    for item in asg.items:
+        fixed = {s: r[item.label] for s, r in (redraws or {}).items() if item.label in r} if redraws else None
+        try:
+            per = class_variants(item.problem, asg.course, asg.salt, student_ids, fixed)
+        except GradekitError as exc:
+            raise ProblemError(exc.format_message(), path=asg.path, field=f"problems.{item.label}") from None
+        for s, v in per.items():
+            variants[s][item.label] = v
+    keys = [
+        k
+        for s in student_ids
+        for item in asg.items
+        for k in keys_for(asg, item, s, variants[s][item.label], with_mistakes)
+    ]
+    return keys, variants
+
+
+def redraws_from_manifest(path: Path) -> dict[str, dict[str, int]]:
+    """The re-draw counters recorded at generation (``students.<id>.<label>.redraw``)."""
+    data = json.loads(path.read_text(encoding="utf-8"))
+    out = {}
+    for s, seeds in data.get("students", {}).items():
+        out[s] = {label: int(v.get("redraw", 0)) if isinstance(v, dict) else 0 for label, v in seeds.items()}
+    return out

@@ -140,3 +140,43 @@ def bank_check(ids: tuple[str, ...], variants: int, class_size: int, bank: str |
     ok = check_bank(ids, variants, class_size, bank, echo=click.echo)
     if not ok:
         sys.exit(1)
+
+
+@main.command()
+@click.argument("assignment", type=click.Path(exists=True, dir_okay=False))
+@click.option("--roster", required=True, type=click.Path(exists=True, dir_okay=False), help="Class roster CSV.")
+@click.option("--submissions", required=True, type=click.Path(file_okay=False), help="Folder of submitted CSVs.")
+@click.option("--out", required=True, type=click.Path(file_okay=False), help="Output folder.")
+@click.option(
+    "--manifest",
+    type=click.Path(exists=True, dir_okay=False),
+    default=None,
+    help="manifest.json written by generate: reproduce its variants and report bank changes.",
+)
+@click.option("--reveal", is_flag=True, help="Show the correct values in the students' feedback.")
+@_bank_opt
+def grade(
+    assignment: str, roster: str, submissions: str, out: str, manifest: str | None, reveal: bool, bank: str | None
+) -> None:
+    """Grade every submission in SUBMISSIONS against keys recomputed from ASSIGNMENT and ROSTER."""
+    from pathlib import Path
+
+    from gradekit.assignment import check_manifest, class_keys, load_assignment, redraws_from_manifest
+    from gradekit.grading.batch import grade_batch
+    from gradekit.roster import read_roster
+
+    asg = load_assignment(assignment, bank)
+    students = read_roster(Path(roster))
+    redraws = None
+    if manifest:
+        for note in check_manifest(asg, Path(manifest)):
+            log.warning("warning: %s", note)
+        redraws = redraws_from_manifest(Path(manifest))
+    keys, _ = class_keys(asg, [s.student_id for s in students], redraws)
+    titles = {it.label: f"{it.label}: {it.problem.title}" for it in asg.items}
+    res = grade_batch(
+        keys, students, Path(submissions), Path(out), assignment_title=asg.title, reveal=reveal, problem_titles=titles
+    )
+    log.info(
+        "graded %d of %d students; %d integrity flag(s); results in %s", res.graded, len(students), len(res.flags), out
+    )
