@@ -8,7 +8,7 @@ from pathlib import Path
 import pytest
 
 from gradekit.errors import GradekitError
-from gradekit.grading import grade_batch
+from gradekit.grading import FileRecord, grade_batch
 from gradekit.keys import KeyEntry, Mistake, Tolerance
 from gradekit.roster import Student
 
@@ -152,9 +152,7 @@ def test_messages_name_file_row_and_column(batch) -> None:
     assert [str(i) for i in fay.issues] == [f"{sub}/1006.csv:3: value: expected a number, got a blank cell"]
     files = {Path(f.path).name: f for f in result.files}
     assert files["1007.csv"].status == "unreadable"
-    assert files["1007.csv"].detail.startswith(
-        f"{sub}/1007.csv: file: expected a CSV text file, got binary data"
-    )
+    assert files["1007.csv"].detail.startswith(f"{sub}/1007.csv: file: expected a CSV text file, got binary data")
     assert files["9999.csv"].status == "unknown student"
     assert files["9999.csv"].detail == "unknown student '9999'"
     assert files["ivy_jones_1009_67890_answers.csv"].status == "graded"
@@ -240,3 +238,32 @@ def test_missing_folder_raises_and_foreign_output_folder_is_refused(tmp_path: Pa
     with pytest.raises(GradekitError, match="expected an empty output folder or one gradekit wrote before"):
         grade_batch(make_keys(), students, sub, mine)
     assert (mine / "thesis.docx").read_text() == "precious"
+
+
+def test_class_wide_file_moodle_folders_and_output_inside_submissions(tmp_path: Path) -> None:
+    sub = tmp_path / "sub"
+    (sub / "Ivy Jones_1009_assignsubmission_file_").mkdir(parents=True)
+    (sub / "Ivy Jones_1009_assignsubmission_file_" / "answers.csv").write_text(
+        "key;value;unit\n"
+        + "".join(f"{k};{v:.4f};\n".replace(f"{v:.4f}", f"{v:.4f}".replace(".", ",")) for k, v in key_values(8).items())
+    )
+    wide = ["student_id,p1.T,p1.F,p2.a"]
+    wide += [f"{IDS[i]}," + ",".join(f"{v:.4g}" for v in key_values(i).values()) for i in (0, 1)]
+    wide.append("4242,1,2,3")
+    (sub / "class.csv").write_text("\n".join(wide) + "\n")
+    students = [Student(sid, name) for sid, name in zip(IDS, NAMES, strict=True)]
+    out = sub / "graded"
+    result = grade_batch(make_keys(), students, sub, out, histogram=False)
+    assert [(g.student.student_id, g.total) for g in result.grades if g.submission] == [
+        ("1001", 4.0),
+        ("1002", 4.0),
+        ("1009", 4.0),
+    ]
+    assert [(Path(f.path).name, f.status, f.detail) for f in result.files] == [
+        ("class.csv", "graded", "class-wide: 2 students graded; unknown student '4242'"),
+        ("answers.csv", "graded", "student 1009"),
+    ]
+    # a second run into the same output folder skips it and reads the same files
+    again = grade_batch(make_keys(), students, sub, out, histogram=False)
+    assert again.files == (*result.files, FileRecord(f"{out}/", "ignored", "folder not read"))
+    assert not (out / "histogram.png").exists()

@@ -2,9 +2,9 @@
 
 from __future__ import annotations
 
-import tempfile
 from pathlib import Path
 
+import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -21,7 +21,6 @@ KEYS = [
 ]
 IDS = IdIndex(STUDENTS)
 KEYIDX = KeyIndex(e.key for e in KEYS)
-DIR = Path(tempfile.mkdtemp(prefix="gradekit-fuzz-"))
 
 CELLS = st.one_of(
     st.sampled_from(
@@ -73,8 +72,13 @@ ENCODINGS = st.sampled_from(["utf-8", "utf-8-sig", "utf-16", "utf-16-le", "cp125
 NEWLINES = st.sampled_from(["\n", "\r\n", "\r"])
 
 
-def check(data: bytes, name: str = "x.csv") -> None:
-    path = DIR / "sub.csv"
+@pytest.fixture(scope="module")
+def folder(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    return tmp_path_factory.mktemp("fuzz")
+
+
+def check(folder: Path, data: bytes, name: str = "x.csv") -> None:
+    path = folder / "sub.csv"
     path.write_bytes(data)
     subs = read_file(path, name, name, IDS, KEYIDX)
     assert subs and all(isinstance(s, Submission) for s in subs)
@@ -91,21 +95,19 @@ FAST = settings(max_examples=400, deadline=None, suppress_health_check=[HealthCh
 
 @FAST
 @given(st.binary(max_size=3000))
-def test_random_bytes(data: bytes) -> None:
-    check(data)
+def test_random_bytes(folder: Path, data: bytes) -> None:
+    check(folder, data)
 
 
 @FAST
 @given(ROWS, SEPARATORS, ENCODINGS, NEWLINES, st.booleans())
-def test_random_tables(rows: list[list[str]], sep: str, encoding: str, newline: str, quote: bool) -> None:
+def test_random_tables(folder: Path, rows: list[list[str]], sep: str, encoding: str, newline: str, quote: bool) -> None:
     cells = [[f'"{c}"' if quote and i % 2 else c for i, c in enumerate(row)] for row in rows]
     text = newline.join(sep.join(row) for row in cells)
-    check(text.encode(encoding, errors="replace"), name="hailesel_789_1_answers.csv")
+    check(folder, text.encode(encoding, errors="replace"), name="hailesel_789_1_answers.csv")
 
 
 @FAST
-@given(
-    st.text(alphabet=st.sampled_from(list(",;\t\"'\n\r\ufeff\x00 0123456789.eE-+NaNk*mp1T_")), max_size=400)
-)
-def test_random_text_of_csv_characters(text: str) -> None:
-    check(text.encode("utf-8", errors="surrogatepass"))
+@given(st.text(alphabet=st.sampled_from(list(",;\t\"'\n\r\ufeff\x00 0123456789.eE-+NaNk*mp1T_")), max_size=400))
+def test_random_text_of_csv_characters(folder: Path, text: str) -> None:
+    check(folder, text.encode("utf-8", errors="surrogatepass"))

@@ -168,9 +168,9 @@ def _record(display: str, subs: list[Submission], chosen: dict[str, Submission])
         )
     if unreadable:
         parts.append(str(unreadable[0].issues[0]) if unreadable[0].issues else "unreadable")
-        who = [s.student_id for s in unreadable if s.student_id]
-        if who:
-            parts.append(f"student {who[0]} scores 0 for it" if chosen[who[0]] in unreadable else "")
+        zero = [s.student_id for s in unreadable if s.student_id and chosen[s.student_id] is s]
+        if zero:
+            parts.append(f"student {zero[0]} scores 0 for it")
     if graded:
         status = "graded"
         if len(subs) == 1:
