@@ -9,6 +9,7 @@ import sys
 import click
 
 from gradekit import __version__
+from gradekit.errors import GradekitError
 
 log = logging.getLogger("gradekit")
 
@@ -180,3 +181,26 @@ def grade(
     log.info(
         "graded %d of %d students; %d integrity flag(s); results in %s", res.graded, len(students), len(res.flags), out
     )
+
+
+@main.command()
+@click.argument("problem")
+@click.option("--published", is_flag=True, help="The values printed in the source (default).")
+@click.option("--student", default=None, help="That student's individual values.")
+@click.option("--course", default="MEG373", show_default=True, help="Course name (part of the seed).")
+@click.option("--salt", default="", help="Assignment salt (part of the seed).")
+@click.option("--out", required=True, type=click.Path(file_okay=False), help="Folder for the figures.")
+@click.option("--format", "fmt", type=click.Choice(["svg", "png"]), default="svg", show_default=True)
+@_bank_opt
+def figures(
+    problem: str, published: bool, student: str | None, course: str, salt: str, out: str, fmt: str, bank: str | None
+) -> None:
+    """Write every figure of a variant (the scene and the key figures) for authors to preview."""
+    from pathlib import Path
+
+    from gradekit.bank.registry import resolve
+    from gradekit.figures import write_figures
+
+    v = _variant(resolve(problem, bank), published, student, None, course, salt)
+    for path in write_figures(v.result, Path(out), fmt):
+        click.echo(str(path))
