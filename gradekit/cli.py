@@ -181,6 +181,10 @@ def grade(
     log.info(
         "graded %d of %d students; %d integrity flag(s); results in %s", res.graded, len(students), len(res.flags), out
     )
+    if not res.ok:
+        raise GradekitError(
+            f"expected at least one readable submission, got none; see {out}/report.md", path=submissions
+        )
 
 
 @main.command()
