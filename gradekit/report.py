@@ -73,7 +73,51 @@ def intermediate(result: Result) -> dict:
                 continue
             du = display_unit(p, u)
             sel[key] = {"value": units.convert(v, u, du) if du != u else v, "unit": du}
+        if dynamic:
+            for body, st in case.solution.states.items():
+                if st.inertia_couple and st.mass:
+                    sel[f"h_side[{p.label(body)}]"] = {"value": offset_side(st.inertia_couple), "unit": ""}
         out[case.name or "_"] = sel
+    return out
+
+
+def offset_side(couple: float) -> str:
+    """Where the equivalent offset inertia force passes G so that its moment equals the inertia couple."""
+    side = "right" if couple > 0 else "left"
+    return f"{side} of G, looking along the inertia force (its moment about G is {'CCW' if couple > 0 else 'CW'})"
+
+
+def graphical(result: Result) -> dict:
+    """The graphical method as data, per case and body: member kind, forces with their lines of action
+    (a point and the vector), the concurrency point of a three-force member and the force-polygon
+    vertices, in the problem's display units."""
+    p = result.problem
+    k_len = units.factor("m", p.units["length"])
+    k_f = units.factor("N", p.units["force"])
+    k_t = units.factor("N*m", p.units["torque"])
+    out = {}
+    for case in result.cases:
+        members = {}
+        for body, m in case.solution.total.members.items():
+            members[p.label(body)] = {
+                "kind": m.kind,
+                "forces": [
+                    {
+                        "name": f.name,
+                        "kind": f.kind,
+                        "point": [float(x) * k_len for x in f.point],
+                        "vector": [float(x) * k_f for x in f.vector],
+                    }
+                    for f in m.forces
+                ],
+                "couples": [{"name": n, "value": c * k_t} for n, c in m.couples],
+                "concurrency": None if m.concurrency is None else [float(x) * k_len for x in m.concurrency],
+                "polygon": [[float(x) * k_f for x in row] for row in m.polygon],
+            }
+        out[case.name or "_"] = {
+            "units": {"length": p.units["length"], "force": p.units["force"], "torque": p.units["torque"]},
+            "members": members,
+        }
     return out
 
 
@@ -104,6 +148,7 @@ def as_json(result: Result) -> dict:
             for a in result.answers
         },
         "intermediate": intermediate(result),
+        "graphical": graphical(result),
         "checks": {
             "virtual_work_residual": result.virtual_work_residual,
             "condition_number": result.condition_number,
@@ -125,7 +170,8 @@ def as_text(result: Result) -> str:
     for name, sel in intermediate(result).items():
         lines.append("intermediate" + ("" if name == "_" else f" (case {name})") + ":")
         for k, d in sel.items():
-            lines.append(f"  {k:<22} = {fmt(d['value'])} {units.pretty(d['unit'])}")
+            shown = d["value"] if isinstance(d["value"], str) else f"{fmt(d['value'])} {units.pretty(d['unit'])}"
+            lines.append(f"  {k:<22} = {shown}")
     lines.append("answers:")
     for a in result.answers:
         sign = f"  [{a.sign}]" if a.sign else ""
