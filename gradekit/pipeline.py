@@ -297,6 +297,9 @@ def solve_problem(problem: Problem, values: dict[str, float]) -> Result:
             if spec.case is not None and spec.case != case.name:
                 continue
             key = spec.key if (spec.case is not None or case.name is None) else f"{spec.key}_{case.name}"
+            if spec.of.startswith("param["):
+                name = spec.of[6:-1]
+                case.results.setdefault(spec.of, (case.values[name], problem.parameters[name].unit))
             if spec.of not in case.results:
                 raise ProblemError(
                     f"expected a result this mechanism reports (e.g. "

@@ -20,7 +20,7 @@ import numpy as np
 from gradekit import units
 from gradekit.bank import expr
 from gradekit.bank.schema import Parameter, Problem
-from gradekit.errors import GeometryError, GradekitError, SamplingError
+from gradekit.errors import GeometryError, GradekitError, ProblemError, SamplingError
 from gradekit.mechanics.forces import VW_LIMIT
 from gradekit.pipeline import Result, fill, published_values, round_display, sig_round, solve_problem
 
@@ -59,7 +59,10 @@ class Variant:
 def check(problem: Problem, values: dict[str, float]) -> tuple[str | None, Result | None]:
     """Solve *values* and test every constraint; return (rejecting constraint or None, result)."""
     c = problem.constraints
-    full = fill(problem, values)
+    try:
+        full = fill(problem, values)
+    except ProblemError as exc:  # a derived value undefined for this draw (e.g. sqrt of a negative)
+        return f"derived: {exc.field}", None
     for text, message in c.require:
         try:
             if not expr.evaluate(text, full):

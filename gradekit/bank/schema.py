@@ -39,7 +39,7 @@ METHODS = ("analytical", "graphical")
 ANALYSES = ("static", "dynamic")
 _ID = re.compile(r"^[a-z0-9][a-z0-9_-]*$")
 _RESULT = re.compile(
-    r"^(driver|transmission|(F|M)\[[^,\]]+,[^\]]+\]|(aG|vG|Fi|a|v)\[[^\]]+\]|(alpha|omega|theta|Ci|h)\[[^\]]+\])"
+    r"^(param\[[A-Za-z_][A-Za-z0-9_]*\]$|driver|transmission|(F|M)\[[^,\]]+,[^\]]+\]|(aG|vG|Fi|a|v)\[[^\]]+\]|(alpha|omega|theta|Ci|h)\[[^\]]+\])"
     r"(@[^.]+)?(\.(x|y|mag|angle))?$"
 )
 
@@ -778,6 +778,8 @@ def _answers(c: _Collector, data: dict, method: str, cases: dict) -> tuple[Answe
             c.err(m, "key", f"{w}.key", f"expected a unique key, got {key!r} twice")
         keys.add(key)
         of = m.get("of")
+        if isinstance(of, str) and of.startswith("param[") and of[6:-1] not in data.get("parameters", {}):
+            c.err(m, "of", f"{w}.of", f"expected param[<a parameter name>], got {of!r}")
         if not isinstance(of, str) or not _RESULT.match(of):
             c.err(
                 m,
