@@ -46,6 +46,7 @@ class Assignment:
     items: tuple[Item, ...]
     path: str
     sha256: str
+    redraws: dict[str, dict[str, int]] = dataclasses.field(default_factory=dict)
 
 
 def load_assignment(path: Path | str, bank: Path | str | None = None) -> Assignment:
@@ -53,7 +54,12 @@ def load_assignment(path: Path | str, bank: Path | str | None = None) -> Assignm
     path = Path(path)
     data = load(path)
     c = _Collector(str(path))
-    c.mapping(data, "", ("title", "course", "salt", "problems"), ("term", "due", "instructions", "submission", "bank"))
+    c.mapping(
+        data,
+        "",
+        ("title", "course", "salt", "problems"),
+        ("term", "due", "instructions", "submission", "bank", "redraws"),
+    )
     problems = load_bank(bank or (path.parent / data["bank"] if isinstance(data.get("bank"), str) else None))
     items = []
     labels: set[str] = set()
@@ -84,6 +90,18 @@ def load_assignment(path: Path | str, bank: Path | str | None = None) -> Assignm
         for k in c.mapping(tm, f"{w}.tolerances", (), tuple(sorted(keys)), m, "tolerances") or {}:
             per[k] = _tolerance(c, tm[k], f"{w}.tolerances.{k}", default, tm)
         items.append(Item(label, prob, pts, tol, per))
+    redraws: dict[str, dict[str, int]] = {}
+    rd = data.get("redraws", {})
+    for sid in (
+        c.mapping(rd, "redraws", (), tuple(str(k) for k in rd) if isinstance(rd, dict) else (), data, "redraws") or {}
+    ):
+        per = rd[sid]
+        m = c.mapping(per, f"redraws.{sid}", (), tuple(sorted(labels)), rd, sid) or {}
+        for label, n in m.items():
+            if not isinstance(n, int) or isinstance(n, bool) or n < 0:
+                c.err(m, label, f"redraws.{sid}.{label}", f"expected a whole number of at least 0, got {n!r}")
+            else:
+                redraws.setdefault(str(sid), {})[label] = n
     for k in ("title", "course", "salt"):
         if not isinstance(data.get(k), str) or not data.get(k):
             c.err(data, k, k, f"expected text, got {data.get(k)!r}")
@@ -272,9 +290,10 @@ def class_keys(
 
     variants: dict[str, dict[str, Variant]] = {s: {} for s in student_ids}
     for item in asg.items:
-        fixed = {s: r[item.label] for s, r in (redraws or {}).items() if item.label in r} if redraws else None
+        source = redraws if redraws is not None else asg.redraws
+        start = {s: r[item.label] for s, r in source.items() if item.label in r}
         try:
-            per = class_variants(item.problem, asg.course, asg.salt, student_ids, fixed)
+            per = class_variants(item.problem, asg.course, asg.salt, student_ids, start, frozen=redraws is not None)
         except GradekitError as exc:
             raise ProblemError(exc.format_message(), path=asg.path, field=f"problems.{item.label}") from None
         for s, v in per.items():

@@ -24,12 +24,14 @@ def main(verbose: int, quiet: bool) -> None:
     logging.basicConfig(level=level, format="%(message)s", stream=sys.stderr)
 
 
-def _variant(problem, published: bool, student: str | None, seed: int | None, course: str, salt: str):
+def _variant(problem, published: bool, student: str | None, seed: int | None, course: str, salt: str, redraw: int = 0):
     from gradekit.sampling import variant
 
     if sum(x is not None and x is not False for x in (student, seed)) + bool(published) > 1:
         raise click.UsageError("give at most one of --published, --student and --seed")
-    return variant(problem, course=course, salt=salt, student=student, seed=seed)
+    if redraw and student is None:
+        raise click.UsageError("--redraw goes with --student")
+    return variant(problem, course=course, salt=salt, student=student, seed=seed, redraw=redraw)
 
 
 _bank_opt = click.option(
@@ -47,12 +49,19 @@ _bank_opt = click.option(
 @click.option("--seed", type=int, default=None, help="Values drawn from this seed.")
 @click.option("--course", default="MEG373", show_default=True, help="Course name (part of the seed).")
 @click.option("--salt", default="", help="Assignment salt (part of the seed).")
+@click.option(
+    "--redraw",
+    type=click.IntRange(0, 1000),
+    default=0,
+    help="That student's n-th re-draw (as recorded under redraws: in an assignment).",
+)
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
 @_bank_opt
 def solve(
     problem: str,
     published: bool,
     student: str | None,
+    redraw: int,
     seed: int | None,
     course: str,
     salt: str,
@@ -63,7 +72,7 @@ def solve(
     from gradekit import report
     from gradekit.bank.registry import resolve
 
-    v = _variant(resolve(problem, bank), published, student, seed, course, salt)
+    v = _variant(resolve(problem, bank), published, student, seed, course, salt, redraw)
     if as_json:
         click.echo(json.dumps(report.as_json(v.result), indent=2))
     else:

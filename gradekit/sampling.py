@@ -175,11 +175,15 @@ def class_variants(
     salt: str,
     students: list[str],
     redraws: dict[str, int] | None = None,
+    frozen: bool = False,
     limit: int = 50,
 ) -> dict[str, Variant]:
-    """Every student's variant, no two alike: a student whose values repeat an earlier student's
-    (in roster order) is re-drawn with the next re-draw counter. *redraws* (from a manifest)
-    fixes the counters already used, so regenerating never changes a printed sheet.
+    """Every student's variant, no two alike.
+
+    A student starts at re-draw counter ``redraws[s]`` (0 by default: an instructor's explicit
+    re-draw of one student changes only that student's seed). A student whose values repeat an
+    earlier student's (in roster order) is re-drawn with the next counter, unless *frozen* (the
+    counters come from a manifest and are reproduced exactly).
     """
     out: dict[str, Variant] = {}
     seen: set[tuple] = set()
@@ -188,7 +192,7 @@ def class_variants(
         r = (redraws or {}).get(s, 0)
         v = variant(problem, course=course, salt=salt, student=s, redraw=r)
         key = tuple(sorted(v.values.items()))
-        while randoms and key in seen and r < limit and not redraws:
+        while randoms and key in seen and r < limit and not frozen:
             r += 1
             v = variant(problem, course=course, salt=salt, student=s, redraw=r)
             key = tuple(sorted(v.values.items()))
