@@ -166,16 +166,16 @@ def as_text(result: Result) -> str:
     ]
     for n, v in result.values.items():
         par = p.parameters[n]
-        lines.append(f"  {n:<10} = {fmt(v, 6)} {units.pretty(par.unit)}  {par.description}")
+        lines.append(f"  {n:<10} = {units.with_unit(fmt(v, 6), par.unit)}  {par.description}")
     for name, sel in intermediate(result).items():
         lines.append("intermediate" + ("" if name == "_" else f" (case {name})") + ":")
         for k, d in sel.items():
-            shown = d["value"] if isinstance(d["value"], str) else f"{fmt(d['value'])} {units.pretty(d['unit'])}"
+            shown = d["value"] if isinstance(d["value"], str) else units.with_unit(fmt(d["value"]), d["unit"])
             lines.append(f"  {k:<22} = {shown}")
     lines.append("answers:")
     for a in result.answers:
         sign = f"  [{a.sign}]" if a.sign else ""
-        lines.append(f"  {a.key:<8} = {fmt(a.value)} {units.pretty(a.unit)}  {a.description}{sign}")
+        lines.append(f"  {a.key:<8} = {units.with_unit(fmt(a.value), a.unit)}  {a.description}{sign}")
     lines.append(
         f"checks: virtual-work residual {result.virtual_work_residual:.2e}, condition number "
         f"{result.condition_number:.3g}, transmission angle {result.transmission_angle:.1f}°"

@@ -21,8 +21,7 @@ class Shown(str):
 
 def shown(problem: Problem, name: str, value: float) -> Shown:
     par = problem.parameters[name]
-    unit = units.pretty(par.unit)
-    text = f"{fmt(value, 6)}{unit}" if unit == "°" else f"{fmt(value, 6)} {unit}"
+    text = units.with_unit(fmt(value, 6), par.unit)
     s = Shown(text)
     s.value, s.unit = value, par.unit
     return s

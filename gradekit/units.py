@@ -125,3 +125,11 @@ def pretty(unit: str) -> str:
     for a, b in _PRETTY:
         text = text.replace(a, b)
     return text
+
+
+def with_unit(number: str, unit: str) -> str:
+    """``30 mm``, ``45°``: a formatted number followed by its display unit."""
+    u = pretty(unit)
+    if not u or u == "dimensionless":
+        return number
+    return f"{number}{u}" if u == "°" else f"{number} {u}"
