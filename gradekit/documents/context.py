@@ -1,0 +1,293 @@
+"""The one place a document's template context is built: a student's sheet, or the worked key."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from gradekit import units
+from gradekit.assignment import Assignment, Item, keys_for
+from gradekit.documents.typeset import Typ, num, paragraphs, text
+from gradekit.mechanics.model import GROUND, Prismatic
+from gradekit.pipeline import CaseResult, Result
+from gradekit.report import display_unit
+from gradekit.roster import Student
+from gradekit.sampling import Variant
+from gradekit.statement import render_statement
+
+
+@dataclass(frozen=True)
+class Picture:
+    """A figure written to the build folder: its path relative to the Typst root and how to place it."""
+
+    path: str
+    caption: str
+    true_scale: bool = False
+    scale_text: str = ""
+    wide: bool = False  # a true-scale drawing wider than the text: placed on a landscape page
+
+
+@dataclass(frozen=True)
+class Solved:
+    """One item of the assignment solved for one student, with its pictures."""
+
+    item: Item
+    variant: Variant
+    scenes: tuple[Picture, ...]
+    key_pictures: tuple[Picture, ...] = ()
+
+
+def build_context(asg: Assignment, student: Student, solved: list[Solved], *, key: bool) -> dict:
+    """The template context of *student*'s assignment sheet, or of their worked key when *key*.
+
+    Answer values enter the context only when *key* is set: the sheet's template cannot print
+    what it is never given.
+    """
+    problems = []
+    for s in solved:
+        res = s.variant.result
+        entries = keys_for(asg, s.item, student.student_id, s.variant, with_mistakes=False)
+        p = {
+            "label": s.item.label,
+            "title": res.problem.title,
+            "source": _source(res.problem.source),
+            "points": num(s.item.points, 4),
+            "method": res.problem.method,
+            "analysis": res.problem.analysis,
+            "statement": paragraphs(render_statement(res.problem, res.values)),
+            "scenes": s.scenes,
+            "asked": [{"key": e.key, "description": e.description, "unit": e.unit,
+                       "sign": e.sign_convention, "points": num(e.points, 4)} for e in entries],
+        }
+        if key:
+            p.update(_worked(res, entries, s.key_pictures))
+        problems.append(p)
+    total = sum(s.item.points for s in solved)
+    return {
+        "course": asg.course,
+        "term": asg.term,
+        "title": asg.title,
+        "due": asg.due,
+        "instructions": paragraphs(asg.instructions) if asg.instructions.strip() else Typ(""),
+        "submission": paragraphs(asg.submission) if asg.submission.strip() else Typ(""),
+        "student": {"id": student.student_id, "name": student.display, "section": student.section},
+        "total_points": num(total, 4),
+        "problems": problems,
+        "key": key,
+    }
+
+
+def _source(src: dict[str, str]) -> str:
+    return ", ".join(v for v in (src.get("document", ""), src.get("ref", "")) if v)
+
+
+def _worked(res: Result, entries, key_pictures) -> dict:
+    p = res.problem
+    given = []
+    for name, value in res.values.items():
+        par = p.parameters.get(name)
+        if par is None:
+            continue
+        given.append({"symbol": par.symbol or name, "description": par.description,
+                      "value": num(value, 6), "unit": par.unit, "derived": bool(par.expr)})
+    cases = [_case(res, c) for c in res.cases]
+    answers = [{"key": e.key, "description": e.description, "value": num(e.value, 5), "unit": e.unit,
+                "sign": e.sign_convention, "tolerance": e.tolerance.describe(), "points": num(e.points, 4)}
+               for e in entries]
+    return {
+        "given": given,
+        "cases": cases,
+        "key_pictures": key_pictures,
+        "answers": answers,
+        "checks": {"residual": sci(res.virtual_work_residual), "condition": sci(res.condition_number),
+                   "transmission": num(res.transmission_angle, 4)},
+    }
+
+
+def sci(x: float) -> Typ:
+    """A small or large number as ``1.2 × 10⁻¹²`` (Typst math)."""
+    if x == 0 or not math.isfinite(x):
+        return num(x) if math.isfinite(x) else text(str(x))
+    e = int(math.floor(math.log10(abs(x))))
+    if -3 <= e <= 4:
+        return num(x, 3)
+    m = x / 10.0**e
+    return Typ(f"${num(m, 3)} times 10^({e})$")
+
+
+def quantity(value: float, unit: str, sig: int = 5) -> Typ:
+    """``12.3 N·mm`` (or ``45°``) as markup: the number through `num`, the unit escaped."""
+    pretty = units.pretty(unit)
+    if not pretty:
+        return num(value, sig)
+    return Typ(f"{num(value, sig)}{'' if pretty == '°' else ' '}{text(pretty)}")
+
+
+def _shown(p, value: float, si: str) -> tuple[float, str]:
+    du = display_unit(p, si)
+    return (units.convert(value, si, du) if du != si else value), du
+
+
+def _case(res: Result, case: CaseResult) -> dict:
+    """Kinematics, inertia, equations, solved forces and superposition of one case (position)."""
+    p = res.problem
+    sol = case.solution
+    link = sol.linkage
+    lab = p.label
+    r = case.results
+    dynamic = p.analysis == "dynamic"
+
+    def q(key: str, sig: int = 5) -> Typ:
+        v, u = r[key]
+        return quantity(*_shown(p, v, u), sig)
+
+    bodies = [b for b in link.bodies if b != GROUND]
+    kin, inertia = [], []
+    if dynamic:
+        for b in bodies:
+            L = lab(b)
+            kin.append({"body": L, "theta": q(f"theta[{L}]"), "omega": q(f"omega[{L}]"),
+                        "alpha": q(f"alpha[{L}]"), "aG": q(f"aG[{L}].mag"), "aG_dir": q(f"aG[{L}].angle"),
+                        "aGx": q(f"aG[{L}].x"), "aGy": q(f"aG[{L}].y")})
+            st = sol.states[b]
+            m_unit = p.units.get("mass", "kg")
+            i_unit = p.units.get("inertia", "kg*m**2")
+            inertia.append({"body": L, "m": quantity(units.convert(st.mass, "kg", m_unit), m_unit),
+                            "I": quantity(units.convert(st.inertia, "kg*m**2", i_unit), i_unit),
+                            "Fi": q(f"Fi[{L}].mag"), "Fi_dir": q(f"Fi[{L}].angle"),
+                            "Ci": q(f"Ci[{L}]"), "h": q(f"h[{L}]")})
+    forces = []
+    for j in link.joints:
+        if isinstance(j, Prismatic):
+            a, b = j.guide, j.block
+        else:
+            a, b = j.a, j.b
+        stem = f"F[{lab(a)},{lab(b)}]"
+        row = {"name": j.name, "symbol": Typ(f"$F_({_m(lab(a) + lab(b))})$"),
+               "x": q(stem + ".x"), "y": q(stem + ".y"), "mag": q(stem + ".mag"), "angle": q(stem + ".angle")}
+        if isinstance(j, Prismatic):
+            row["couple"] = q(f"M[{lab(a)},{lab(b)}]")
+        forces.append(row)
+    drv_sym = "T" if link.driver.kind == "torque" else "P"
+    driver = {"symbol": Typ(drv_sym), "value": q("driver")}
+    groups = []
+    if len(sol.groups) > 1:
+        for g in sol.groups:
+            gl = _group_label(p, g)
+            groups.append({"name": gl, "driver": q(f"driver@{gl}"),
+                           "forces": [q(f"{row_stem(lab, j)}@{gl}.mag") for j in link.joints]})
+        groups.append({"name": "total", "driver": q("driver"),
+                       "forces": [q(f"{row_stem(lab, j)}.mag") for j in link.joints]})
+    return {
+        "name": case.name or "",
+        "kinematics": kin,
+        "inertia": inertia,
+        "equations": _equations(res, case),
+        "forces": forces,
+        "driver": driver,
+        "groups": groups,
+        "group_columns": [Typ(f"$F_({_m(_pair(lab, j))})$") for j in link.joints],
+        "vw_driver": quantity(*_shown(p, sol.virtual_work_driver, r["driver"][1])),
+    }
+
+
+def row_stem(lab, j) -> str:
+    a, b = (j.guide, j.block) if isinstance(j, Prismatic) else (j.a, j.b)
+    return f"F[{lab(a)},{lab(b)}]"
+
+
+def _pair(lab, j) -> str:
+    a, b = (j.guide, j.block) if isinstance(j, Prismatic) else (j.a, j.b)
+    return lab(a) + lab(b)
+
+
+def _group_label(p, group: str) -> str:
+    if group.startswith("inertia:"):
+        return f"inertia[{p.label(group.split(':', 1)[1])}]"
+    return group
+
+
+def _m(s: str) -> str:
+    """Text inside Typst math, quoted so that ``01`` or ``crank`` print as written."""
+    return '"' + s.replace("\\", "\\\\").replace('"', '\\"') + '"'
+
+
+def _symbol(p, f, body: str, link) -> tuple[str, str]:
+    """The math symbol of a force acting on *body*: stem and subscript."""
+    lab = p.label
+    if f.kind in ("pin", "normal"):
+        j = next((j for j in link.joints if j.name == f.name), None)
+        if j is not None:
+            ends = (j.guide, j.block) if isinstance(j, Prismatic) else (j.a, j.b)
+            other = ends[0] if ends[1] == body else ends[1]
+            return ("N" if f.kind == "normal" else "F"), _m(lab(other) + lab(body))
+        return "F", _m(f.name)
+    if f.kind == "gravity":
+        return "W", _m(lab(body))
+    if f.kind == "inertia":
+        return "F", "i " + _m(lab(body))
+    if f.kind == "driver":
+        return "P", _m(lab(body))
+    return _m(f.name), ""
+
+
+def _component(stem: str, sub: str, axis: str) -> str:
+    return f"{stem}_({sub} {axis})" if sub else f"{stem}_{axis}"
+
+
+def _whole(stem: str, sub: str) -> str:
+    return f"{stem}_({sub})" if sub else stem
+
+
+def _terms(symbols: list[str], values: list[float]) -> tuple[str, str]:
+    sym = " + ".join(symbols) if symbols else "0"
+    big = max((abs(v) for v in values), default=0.0)
+    values = [0.0 if abs(v) <= 1e-9 * big else v for v in values]  # round-off, not a term
+    parts = []
+    for i, v in enumerate(values):
+        s = num(abs(v), 4)
+        if i == 0:
+            parts.append(("- " if v < 0 else "") + s)
+        else:
+            parts.append(("- " if v < 0 else "+ ") + s)
+    return sym, " ".join(parts) if parts else "0"
+
+
+def _equations(res: Result, case: CaseResult) -> list[dict]:
+    """ΣFx = 0, ΣFy = 0, ΣM = 0 of every moving body with the solved numbers (display units)."""
+    p = res.problem
+    sol = case.solution
+    link = sol.linkage
+    fu, tu, lu = p.units["force"], p.units["torque"], p.units["length"]
+    kf, kt = units.factor("N", fu), units.factor("N*m", tu)
+    out = []
+    for body, member in sol.total.members.items():
+        if body == GROUND:
+            continue
+        origin = link.bodies[body].origin.pos()
+        pname = next((n for n, pt in link.points.items() if np.allclose(pt.pos(), origin, atol=1e-12)), "")
+        sx, vx, sy, vy, sm, vm = [], [], [], [], [], []
+        for f in member.forces:
+            stem, sub = _symbol(p, f, body, link)
+            sx.append(_component(stem, sub, "x"))
+            sy.append(_component(stem, sub, "y"))
+            vx.append(float(f.vector[0]) * kf)
+            vy.append(float(f.vector[1]) * kf)
+            rr = f.point - origin
+            mom = float(rr[0] * f.vector[1] - rr[1] * f.vector[0])
+            if abs(mom) > 1e-12 * max(1.0, float(np.hypot(*f.vector))):
+                sm.append(f"M({_whole(stem, sub)})")
+                vm.append(mom * kt)
+        for name, c in member.couples:
+            sm.append("T" if name == "driver" else f"M_({_m(name)})")
+            vm.append(float(c) * kt)
+        eqs = []
+        for head, syms, vals in (("sum F_x", sx, vx), ("sum F_y", sy, vy),
+                                 (f"sum M_({_m(p.point(pname) or 'G')})", sm, vm)):
+            sym, numbers = _terms(syms, vals)
+            eqs.append(Typ(f"${head} = {sym} = {numbers} = 0$"))
+        out.append({"body": p.label(body), "name": body, "point": p.point(pname) if pname else "",
+                    "force_unit": fu, "torque_unit": tu, "length_unit": lu, "lines": eqs})
+    return out

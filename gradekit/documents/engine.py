@@ -1,0 +1,314 @@
+"""`gradekit generate`: every student's assignment PDF, answer template and worked key, in parallel."""
+
+from __future__ import annotations
+
+import json
+import logging
+import re
+import shutil
+import sys
+import time
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from gradekit.assignment import Assignment, keys_for, load_assignment, manifest, seeds_of, student_variant
+from gradekit.csvsafe import atomic_write, write_csv
+from gradekit.documents import typeset
+from gradekit.documents.context import Picture, Solved, build_context
+from gradekit.errors import GradekitError
+from gradekit.grading.exports import safe_names
+from gradekit.report import fmt
+from gradekit.roster import Student, read_roster
+
+log = logging.getLogger("gradekit")
+
+BUILD = ".build"  # the Typst root: figures and bodies, removed when the run ends
+KEY_HEADER = ["student_id", "key", "value", "unit", "tolerance", "points", "problem", "description", "sign"]
+
+
+@dataclass
+class GenerateSummary:
+    """What a run wrote: counts, paths, timings and warnings (e.g. names no font can draw)."""
+
+    out: Path
+    students: int
+    assignments: list[Path] = field(default_factory=list)
+    keys: list[Path] = field(default_factory=list)
+    combined: list[Path] = field(default_factory=list)
+    warnings: list[str] = field(default_factory=list)
+    seconds: float = 0.0
+
+
+@dataclass(frozen=True)
+class _Job:
+    assignment: str
+    out: str
+    keys: bool
+
+
+@dataclass
+class _Done:
+    student_id: str
+    key_rows: list[list]
+    warnings: list[str]
+
+
+def generate(assignment: Path, roster: Path, out: Path, *, jobs: int = 1, student: str | None = None,
+             keys: bool = True, progress: bool = True) -> GenerateSummary:
+    """Write every student's documents, the answer key CSV, the combined PDFs and the manifest.
+
+    Layout of *out*: ``students/<safe id>/assignment.pdf`` and ``answers.csv``, ``keys/<safe id>.pdf``,
+    ``key.csv``, ``assignments.pdf``, ``keys.pdf``, ``manifest.json``. Every file is written
+    atomically and deterministically, so a re-run leaves identical files.
+
+    Args:
+        assignment: the assignment YAML.
+        roster: the class roster CSV.
+        out: the output folder (created).
+        jobs: worker processes (1: in this process).
+        student: regenerate only this student's files (plus key.csv and manifest.json; the
+            combined PDFs are left as they are).
+        keys: also write the worked keys (``keys/``, ``keys.pdf``).
+        progress: show a progress bar when stderr is a terminal.
+
+    Returns:
+        A `GenerateSummary`.
+
+    Raises:
+        GradekitError: a bad assignment, roster or student id.
+    """
+    t0 = time.perf_counter()
+    asg = load_assignment(assignment)
+    students = read_roster(Path(roster))
+    by_id = {s.student_id: s for s in students}
+    if student is not None and student not in by_id:
+        raise GradekitError(f"expected a student id of the roster, got {student!r}", path=str(roster))
+    names = safe_names(by_id)
+    out = Path(out)
+    chosen = [by_id[student]] if student is not None else students
+    for sub in ("students", "keys", BUILD) if keys else ("students", BUILD):
+        (out / sub).mkdir(parents=True, exist_ok=True)
+    job = _Job(str(Path(assignment)), str(out), keys)
+    summary = GenerateSummary(out, len(chosen))
+    done: dict[str, _Done] = {}
+    work = [(s, names[s.student_id]) for s in chosen]
+    try:
+        with _bar(len(work), progress) as bar:
+            if jobs <= 1 or len(work) <= 1:
+                _init(job)
+                for s, safe in work:
+                    done[s.student_id] = _one(s, safe)
+                    bar.update(1)
+            else:
+                chunk = max(1, min(8, len(work) // (4 * jobs)))
+                with ProcessPoolExecutor(jobs, initializer=_init, initargs=(job,)) as pool:
+                    for d in pool.map(_one_packed, work, chunksize=chunk):
+                        done[d.student_id] = d
+                        bar.update(1)
+                    if student is None:
+                        _combine(out, asg, [names[s.student_id] for s in students], keys, pool)
+            if jobs <= 1 and student is None:
+                _combine(out, asg, [names[s.student_id] for s in students], keys, None)
+        rows = []
+        for s in students:  # key.csv always covers the whole class, in roster order
+            d = done.get(s.student_id)
+            rows += d.key_rows if d else _key_rows(asg, s)
+        write_csv(out / "key.csv", KEY_HEADER, rows)
+        seeds = {s.student_id: seeds_of(asg, s.student_id) for s in students}
+        data = manifest(asg, [s.student_id for s in students], seeds)
+        atomic_write(out / "manifest.json", json.dumps(data, indent=2, ensure_ascii=False) + "\n")
+    finally:
+        shutil.rmtree(out / BUILD, ignore_errors=True)
+    for s in chosen:
+        summary.assignments.append(out / "students" / names[s.student_id] / "assignment.pdf")
+        if keys:
+            summary.keys.append(out / "keys" / f"{names[s.student_id]}.pdf")
+        summary.warnings += done[s.student_id].warnings
+    if student is None:
+        summary.combined = [out / "assignments.pdf"] + ([out / "keys.pdf"] if keys else [])
+    summary.seconds = time.perf_counter() - t0
+    return summary
+
+
+class _NoBar:
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc) -> None:
+        return None
+
+    def update(self, n: int) -> None:
+        return None
+
+
+def _bar(n: int, progress: bool):
+    if not (progress and sys.stderr.isatty()):
+        return _NoBar()
+    import click  # the progress bar only; everything else stays free of click
+
+    return click.progressbar(length=n, label="Generating", file=sys.stderr, show_pos=True)
+
+
+# --- worker side: one assignment, one compiler, per process --------------------------------------
+
+_STATE: dict = {}
+
+
+def _init(job: _Job) -> None:
+    out = Path(job.out)
+    root = out / BUILD
+    root.mkdir(parents=True, exist_ok=True)
+    _STATE.update(job=job, asg=load_assignment(job.assignment), out=out, root=root,
+                  compiler=typeset.Compiler(root), fonts=typeset.available_fonts())
+
+
+def _one_packed(pair: tuple[Student, str]) -> _Done:
+    return _one(*pair)
+
+
+def _one(s: Student, safe: str) -> _Done:
+    """Everything of one student: figures, sheet, answers.csv, key; returns the key rows."""
+    asg: Assignment = _STATE["asg"]
+    job: _Job = _STATE["job"]
+    out: Path = _STATE["out"]
+    root: Path = _STATE["root"]
+    comp: typeset.Compiler = _STATE["compiler"]
+    warnings = _font_warnings(s)
+    build = root / "s" / safe
+    build.mkdir(parents=True, exist_ok=True)
+    solved = []
+    for item in asg.items:
+        v = student_variant(asg, item, s.student_id)
+        scenes, pics = _pictures(v.result, item.label, build, safe, job.keys, warnings, s)
+        solved.append(Solved(item, v, tuple(scenes), tuple(pics)))
+    folder = out / "students" / safe
+    folder.mkdir(parents=True, exist_ok=True)
+    ctx = build_context(asg, s, solved, key=False) | {"fonts": _STATE["fonts"]}
+    body = typeset.render("assignment.typ.j2", ctx)
+    atomic_write(build / "assignment.typ", body)
+    meta = _metadata(f"{asg.course} {asg.title}: assignment of {s.student_id}", asg.course)
+    atomic_write(folder / "assignment.pdf", comp.pdf(meta + body))
+    rows = []
+    key_rows = []
+    for sv in solved:
+        for e in keys_for(asg, sv.item, s.student_id, sv.variant, with_mistakes=False):
+            rows.append([s.student_id, e.key, "", e.unit])
+            key_rows.append(_key_row(e))
+    write_csv(folder / "answers.csv", ["student_id", "key", "value", "unit"], rows)
+    if job.keys:
+        kctx = build_context(asg, s, solved, key=True) | {"fonts": _STATE["fonts"]}
+        kbody = typeset.render("key.typ.j2", kctx)
+        atomic_write(build / "key.typ", kbody)
+        meta = _metadata(f"{asg.course} {asg.title}: worked key for {s.student_id}", asg.course)
+        atomic_write(out / "keys" / f"{safe}.pdf", comp.pdf(meta + kbody))
+    return _Done(s.student_id, key_rows, warnings)
+
+
+def _metadata(title: str, author: str) -> str:
+    return f"#set document(title: {typeset.string(title)}, author: {typeset.string(author)}, date: none)\n"
+
+
+def _key_row(e) -> list:
+    return [e.student_id, e.key, float(fmt(e.value, 10)), e.unit, e.tolerance.describe(), e.points, e.problem,
+            e.description, e.sign_convention]
+
+
+def _key_rows(asg: Assignment, s: Student) -> list[list]:
+    rows = []
+    for item in asg.items:
+        v = student_variant(asg, item, s.student_id)
+        rows += [_key_row(e) for e in keys_for(asg, item, s.student_id, v, with_mistakes=False)]
+    return rows
+
+
+def _font_warnings(s: Student) -> list[str]:
+    missing = typeset.missing_glyphs(s.display + s.section)
+    if not missing:
+        return []
+    msg = (f"student {s.student_id}: no installed font draws {missing!r} of the name {s.display!r}; "
+           f"it prints as empty boxes (install {typeset.font_hint(missing)})")
+    log.warning(msg)
+    return [msg]
+
+
+_SVG_WIDTH = re.compile(rb'<svg[^>]*?\swidth="([0-9.]+)(pt|px)?"')
+TEXT_WIDTH_PT = (210 - 40) / 25.4 * 72  # A4 minus the 2 cm margins of templates/_style.typ.j2
+LANDSCAPE_WIDTH_PT = (297 - 40) / 25.4 * 72
+
+
+def _svg_width(svg: bytes) -> float:
+    """The SVG's natural width in points (matplotlib writes pt)."""
+    m = _SVG_WIDTH.search(svg[:2000])
+    if not m:
+        return 0.0
+    return float(m.group(1)) * (0.75 if m.group(2) == b"px" else 1.0)
+
+
+def _pictures(result, label: str, build: Path, safe: str, keys: bool, warnings: list[str], s: Student):
+    """Write the student's scene(s) and, for keys, the key figures; return their `Picture`s."""
+    from gradekit import figures
+
+    p = result.problem
+    true_scale = p.method == "graphical" and p.figure.true_scale is not None
+    scenes = []
+    cases = [c.name for c in result.cases] if len(result.cases) > 1 else [None]
+    for case in cases:
+        fig = figures.scene(result, case, true_scale=true_scale)
+        name = f"{label}-scene{'-' + _slug(case) if case else ''}.svg"
+        svg = figures.to_svg(fig)
+        (build / name).write_bytes(svg)
+        scale, wide = "", False
+        if true_scale:
+            scale = f"Drawn to scale {_ratio(p.figure.true_scale)}: print at 100 % (no fit to page)."
+            width = _svg_width(svg)
+            wide = width > TEXT_WIDTH_PT
+            if width > LANDSCAPE_WIDTH_PT:
+                warnings.append(f"student {s.student_id}: {label} true-scale figure is {width:.0f} pt wide, "
+                                f"wider than a landscape page's text ({LANDSCAPE_WIDTH_PT:.0f} pt)")
+        caption = f"{label}: {p.title}" + (f", position {case}" if case else "") + "."
+        scenes.append(Picture(f"/s/{safe}/{name}", caption, true_scale, scale, wide))
+    pics = []
+    if keys:
+        for slug, caption, fig in figures.key_figures(result):
+            name = f"{label}-key-{_slug(slug)}.svg"
+            (build / name).write_bytes(figures.to_svg(fig))
+            pics.append(Picture(f"/s/{safe}/{name}", caption))
+    return scenes, pics
+
+
+def _ratio(scale: float) -> str:
+    if scale >= 1:
+        return f"{fmt(scale, 3)}:1"
+    return f"1:{fmt(1 / scale, 3)}"
+
+
+def _slug(text: str) -> str:
+    return re.sub(r"[^A-Za-z0-9_-]+", "_", str(text)).strip("_") or "x"
+
+
+# --- the combined PDFs ------------------------------------------------------------------------
+
+def _combine(out: Path, asg: Assignment, safes: list[str], keys: bool, pool) -> None:
+    """``assignments.pdf`` and ``keys.pdf``: one Typst document including every student's body."""
+    tasks = [("assignments.pdf", "assignment.typ", f"{asg.course} {asg.title}: assignments")]
+    if keys:
+        tasks.append(("keys.pdf", "key.typ", f"{asg.course} {asg.title}: worked keys"))
+    args = [(str(out), name, body, title, asg.course, safes) for name, body, title in tasks]
+    if pool is None:
+        for a in args:
+            _combine_one(*a)
+    else:
+        for f in [pool.submit(_combine_one, *a) for a in args]:
+            f.result()
+
+
+def _combine_one(out: str, name: str, body: str, title: str, course: str, safes: list[str]) -> None:
+    root = Path(out) / BUILD
+    comp = _STATE.get("compiler") or typeset.Compiler(root)
+    src = typeset.render("bundle.typ.j2", {"doc_title": title, "course": course,
+                                           "bodies": [f"/s/{s}/{body}" for s in safes]})
+    atomic_write(Path(out) / name, comp.pdf(src))
+
+
+__all__ = ["generate", "GenerateSummary"]
