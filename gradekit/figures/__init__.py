@@ -34,9 +34,9 @@ def scene(result: Result, case: str | None = None, *, true_scale: bool = False):
 
 def key_figures(result: Result) -> list[tuple[str, str, object]]:
     """The answer-key figures of a variant as (slug, caption, figure), in document order."""
-    from gradekit.figures.key import member_figures
+    from gradekit.figures.key import key_figure_specs
 
-    return member_figures(result)
+    return [(slug, caption, make()) for slug, caption, make in key_figure_specs(result)]
 
 
 def to_svg(fig) -> bytes:

@@ -7,7 +7,7 @@ import math
 import numpy as np
 
 from gradekit import units
-from gradekit.figures.canvas import BLACK, BLUE, GREEN, GREY, PURPLE, VERMILION, Canvas, text_size
+from gradekit.figures.canvas import BLACK, BLUE, GREEN, GREY, PURPLE, VERMILION, Canvas
 from gradekit.figures.mech import BAR, PIN, com_marker, draw_linkage, mech_extent
 from gradekit.mechanics.model import GROUND, Prismatic
 from gradekit.pipeline import CaseResult, Result
@@ -240,8 +240,8 @@ def build_scene(result: Result, case: str | None = None, true_scale: bool = Fals
 
 
 def torque_arc(cv: Canvas, c: np.ndarray, r: float, sign: float, colour: str, gid: str,
-               start: float = math.radians(200.0), sweep: float = 4.2) -> None:
-    """A 240° arc arrow around *c*: counterclockwise when *sign* > 0."""
+               start: float = math.radians(-50.0), sweep: float = 4.5) -> None:
+    """An arc arrow around *c* (over the top by default): counterclockwise when *sign* > 0."""
     a0, a1 = (start, start + sweep) if sign > 0 else (start + sweep, start)
     cv.arc(c, r, a0, a1, colour, 1.2, gid=gid)
 
@@ -273,4 +273,3 @@ def scale_note(cv: Canvas, pr, k: float, s: float, biggest: float) -> None:
         lines.append(f"Suggested force scale: {fmt(paper_len)} {pu} = {fmt(per)} {units.pretty(fu)}")
     for i, t in enumerate(lines):
         cv.text((x0, y - 14.0 - 11.0 * i), t, ha="left", gid="scale-note" if i == 0 else None)
-    _ = text_size

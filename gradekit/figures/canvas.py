@@ -84,6 +84,44 @@ def _seg_hits_box(p: np.ndarray, q: np.ndarray, box: tuple[float, float, float, 
     return True
 
 
+def _hits(S: np.ndarray, boxes: np.ndarray) -> np.ndarray:
+    """K×N: whether segment n (x0, y0, x1, y1, half width) meets box k, grown by the half width."""
+    px, py, dx, dy, hw = S[:, 0], S[:, 1], S[:, 2] - S[:, 0], S[:, 3] - S[:, 1], S[:, 4]
+    x0 = boxes[:, 0, None] - hw
+    y0 = boxes[:, 1, None] - hw
+    x1 = boxes[:, 2, None] + hw
+    y1 = boxes[:, 3, None] + hw
+    t0 = np.zeros(x0.shape)
+    t1 = np.ones(x0.shape)
+    ok = np.ones(x0.shape, bool)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        for p, q in ((-dx, px - x0), (dx, x1 - px), (-dy, py - y0), (dy, y1 - py)):
+            p = np.broadcast_to(p, q.shape)
+            zero = p == 0
+            ok &= ~(zero & (q < 0))
+            t = np.where(zero, 0.0, q / np.where(zero, 1.0, p))
+            t0 = np.where(~zero & (p < 0), np.maximum(t0, t), t0)
+            t1 = np.where(~zero & (p > 0), np.minimum(t1, t), t1)
+    return ok & (t0 <= t1)
+
+
+def seg_distance(a, b, c, d) -> float:
+    """Shortest distance between segments a–b and c–d."""
+    a, b, c, d = (np.asarray(v, float) for v in (a, b, c, d))
+
+    def point_seg(p, q, r):
+        v = r - q
+        t = float(np.clip(np.dot(p - q, v) / max(float(np.dot(v, v)), 1e-12), 0.0, 1.0))
+        return float(np.hypot(*(p - q - v * t)))
+
+    def cross(o, p, q):
+        return (p[0] - o[0]) * (q[1] - o[1]) - (p[1] - o[1]) * (q[0] - o[0])
+
+    if (cross(a, b, c) * cross(a, b, d) < 0) and (cross(c, d, a) * cross(c, d, b) < 0):
+        return 0.0
+    return min(point_seg(a, c, d), point_seg(b, c, d), point_seg(c, a, b), point_seg(d, a, b))
+
+
 class Canvas:
     """Primitives in points plus the obstacles labels must avoid."""
 
@@ -91,6 +129,7 @@ class Canvas:
         self.items: list[Item] = []
         self.segments: list[tuple[np.ndarray, np.ndarray, float]] = []  # p, q, half width
         self.boxes: list[tuple[float, float, float, float]] = []  # placed labels and solid marks
+        self.pending: list[tuple[float, int, tuple, dict]] = []  # labels placed once all lines are in
 
     # -- primitives -------------------------------------------------------------------------
     def line(self, pts, color: str = BLACK, lw: float = 1.0, ls: str = "-", gid: str | None = None,
@@ -137,7 +176,10 @@ class Canvas:
         trim = min(abs(a1 - a0) * 0.45, hl / r) if head else 0.0
         sgn = 1.0 if a1 >= a0 else -1.0
         t = np.linspace(a0, a1 - sgn * trim, n)
-        self.line(c + r * np.c_[np.cos(t), np.sin(t)], color, lw, ls, gid, z=z, cap="butt")
+        self.line(c + r * np.c_[np.cos(t), np.sin(t)], color, lw, ls, gid, z=z, cap="butt", obstacle=False)
+        t = np.linspace(a0, a1, max(3, int(abs(a1 - a0) / 0.3) + 1))  # coarse copy for the label placer
+        xy = c + r * np.c_[np.cos(t), np.sin(t)]
+        self.segments += [(p, q, lw / 2 + 1.0) for p, q in zip(xy[:-1], xy[1:], strict=True)]
         if head:
             tip = c + r * np.array([math.cos(a1), math.sin(a1)])
             back = c + r * np.array([math.cos(a1 - sgn * trim), math.sin(a1 - sgn * trim)])
@@ -154,65 +196,91 @@ class Canvas:
             self.boxes.append((x0, xy[1] - h / 2, x0 + w, xy[1] + h / 2))
 
     # -- labels -----------------------------------------------------------------------------
-    def free(self, box: tuple[float, float, float, float], pad: float = 1.5) -> float:
-        """Penalty of placing a label at *box*: 0 when it touches no label, mark or line."""
-        x0, y0, x1, y1 = box
-        pen = 0.0
-        for b in self.boxes:
-            ox = min(x1, b[2]) - max(x0, b[0]) + pad
-            oy = min(y1, b[3]) - max(y0, b[1]) + pad
-            if ox > 0 and oy > 0:
-                pen += 10.0 + ox * oy
-        for p, q, hw in self.segments:
-            if _seg_hits_box(p, q, (x0 - hw, y0 - hw, x1 + hw, y1 + hw)):
-                pen += 25.0
+    def penalties(self, boxes: np.ndarray, pad: float = 1.5) -> np.ndarray:
+        """Penalty of each candidate label box (K×4: x0, y0, x1, y1): 0 when it touches nothing.
+
+        Overlap with a placed label or mark costs 10 + its area; crossing a line costs 25.
+        """
+        pen = np.zeros(len(boxes))
+        lo, hi = boxes[:, :2].min(axis=0) - 8.0, boxes[:, 2:].max(axis=0) + 8.0
+        if self.boxes:
+            B = np.asarray(self.boxes)
+            near = (B[:, 2] > lo[0]) & (B[:, 0] < hi[0]) & (B[:, 3] > lo[1]) & (B[:, 1] < hi[1])
+            B = B[near]
+            if len(B):
+                ox = np.minimum(boxes[:, None, 2], B[None, :, 2]) - np.maximum(boxes[:, None, 0], B[None, :, 0]) + pad
+                oy = np.minimum(boxes[:, None, 3], B[None, :, 3]) - np.maximum(boxes[:, None, 1], B[None, :, 1]) + pad
+                hit = (ox > 0) & (oy > 0)
+                pen += np.where(hit, 10.0 + ox * oy, 0.0).sum(axis=1)
+        if self.segments:
+            S = self._segment_array()
+            smin = np.minimum(S[:, :2], S[:, 2:4]) - S[:, 4:5]
+            smax = np.maximum(S[:, :2], S[:, 2:4]) + S[:, 4:5]
+            near = np.all(smax > lo, axis=1) & np.all(smin < hi, axis=1)
+            S = S[near]
+            if len(S):
+                pen += 25.0 * _hits(S, boxes).sum(axis=1)
         return pen
 
+    def _segment_array(self) -> np.ndarray:
+        if getattr(self, "_seg_cache", (None, -1))[1] != len(self.segments):
+            arr = np.array([(p[0], p[1], q[0], q[1], hw) for p, q, hw in self.segments], float)
+            self._seg_cache = (arr, len(self.segments))
+        return self._seg_cache[0]
+
     def label(self, s: str, anchors, color: str = BLACK, size: float = SIZE, clear: float = 4.0,
-              prefer=None, gid: str | None = None, steps=(0.0, 5.0, 12.0, 22.0, 36.0)) -> np.ndarray:
-        """Place *s* next to the first anchor that has room; return the text centre.
+              prefer=None, gid: str | None = None, priority: float = 0.0) -> None:
+        """Queue label *s* for `place`: labels go in after every line, lowest *priority* first."""
+        self.pending.append((priority, len(self.pending), (s, anchors),
+                             dict(color=color, size=size, clear=clear, prefer=prefer, gid=gid)))
+
+    def place(self) -> None:
+        """Place the queued labels (see `put`)."""
+        pending, self.pending = self.pending, []
+        for _p, _n, args, kw in sorted(pending, key=lambda t: (t[0], t[1])):
+            self.put(*args, **kw)
+
+    def put(self, s: str, anchors, color: str = BLACK, size: float = SIZE, clear: float = 4.0,
+            prefer=None, gid: str | None = None, steps=(0.0, 5.0, 12.0, 22.0, 36.0, 54.0)) -> np.ndarray:
+        """Place *s* next to the first anchor that has room now; return the text centre.
 
         Candidates are boxes touching a circle of radius *clear* (+ step) around each anchor in
         16 directions, the *prefer* direction (a vector) first; the first candidate that touches
-        nothing wins, else the one with the least overlap.
+        nothing wins (nearest step first), else the one with the least overlap.
         """
         w, h = text_size(s, size)
-        anchors = [np.asarray(a, float) for a in (anchors if np.ndim(anchors) == 2 else [anchors])]
-        dirs = [(math.cos(k * math.pi / 8), math.sin(k * math.pi / 8)) for k in range(16)]
+        A = np.asarray(anchors, float).reshape(-1, 2)
+        ang = np.arange(16) * (math.pi / 8)
+        D = np.c_[np.cos(ang), np.sin(ang)]
+        D[np.abs(D) < 1e-12] = 0.0
         if prefer is not None:
             pv = np.asarray(prefer, float)
             pn = float(np.hypot(*pv))
             if pn > 0:
-                pv = pv / pn
-                dirs.sort(key=lambda d: -(d[0] * pv[0] + d[1] * pv[1]))
+                D = D[np.argsort(-(D @ (pv / pn)), kind="stable")]
+        with np.errstate(divide="ignore"):
+            k = np.minimum(np.where(D[:, 0] != 0, w / 2 / np.abs(D[:, 0]), np.inf),
+                           np.where(D[:, 1] != 0, h / 2 / np.abs(D[:, 1]), np.inf))
         best, best_pen = None, math.inf
         for step in steps:
-            for a in anchors:
-                for dx, dy in dirs:
-                    r = clear + step
-                    # box centre so that the box just clears the circle of radius r in direction d
-                    k = min(w / 2 / abs(dx) if dx else math.inf, h / 2 / abs(dy) if dy else math.inf)
-                    cx, cy = a[0] + dx * (r + k), a[1] + dy * (r + k)
-                    box = (cx - w / 2, cy - h / 2, cx + w / 2, cy + h / 2)
-                    pen = self.free(box)
-                    if pen == 0.0:
-                        best = (cx, cy)
-                        break
-                    pen += step * 0.5
-                    if pen < best_pen:
-                        best, best_pen = (cx, cy), pen
-                else:
-                    continue
+            r = clear + step
+            C = (A[:, None, :] + D[None, :, :] * (r + k)[None, :, None]).reshape(-1, 2)
+            boxes = np.c_[C[:, 0] - w / 2, C[:, 1] - h / 2, C[:, 0] + w / 2, C[:, 1] + h / 2]
+            pen = self.penalties(boxes)
+            free = np.flatnonzero(pen == 0.0)
+            if len(free):
+                best = C[free[0]]
                 break
-            else:
-                continue
-            break
+            i = int(np.argmin(pen))
+            if pen[i] + step * 0.5 < best_pen:
+                best, best_pen = C[i], pen[i] + step * 0.5
         assert best is not None
         self.text(best, s, color, size, gid=gid)
         return np.asarray(best)
 
     # -- composition ------------------------------------------------------------------------
     def extent(self) -> tuple[float, float, float, float]:
+        self.place()
         pts = [it.xy.reshape(-1, 2) for it in self.items if it.kind != "text"]
         lo = np.min([p.min(axis=0) for p in pts], axis=0) if pts else np.zeros(2)
         hi = np.max([p.max(axis=0) for p in pts], axis=0) if pts else np.zeros(2)
@@ -226,6 +294,7 @@ class Canvas:
         return x0, y0, x1, y1
 
     def shift(self, d) -> None:
+        self.place()
         d = np.asarray(d, float)
         for it in self.items:
             it.xy = it.xy + d
@@ -233,6 +302,7 @@ class Canvas:
         self.boxes = [(b[0] + d[0], b[1] + d[1], b[2] + d[0], b[3] + d[1]) for b in self.boxes]
 
     def absorb(self, other: Canvas) -> None:
+        other.place()
         self.items += other.items
         self.segments += other.segments
         self.boxes += other.boxes

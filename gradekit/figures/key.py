@@ -9,12 +9,28 @@ import numpy as np
 
 from gradekit import units
 from gradekit.figures.assignment import FIT, PT_PER_M, arrow_len, driver_key, force_text, nice, torque_arc, torque_text
-from gradekit.figures.canvas import BLACK, BLUE, GREEN, GREY, ORANGE, PURPLE, SKY, VERMILION, Canvas, render, row
+from gradekit.figures.canvas import (
+    BLACK,
+    BLUE,
+    FONT,
+    GREEN,
+    GREY,
+    ORANGE,
+    PURPLE,
+    SKY,
+    VERMILION,
+    Canvas,
+    render,
+    row,
+    seg_distance,
+)
 from gradekit.figures.mech import BAR, PIN, com_marker, draw_linkage, mech_extent
 from gradekit.mechanics.forces import AppliedForce, Member
-from gradekit.mechanics.model import GROUND, Linkage, Prismatic
+from gradekit.mechanics.model import Linkage, Prismatic
 from gradekit.pipeline import CaseResult, Result
 from gradekit.report import fmt
+
+FONT_FAMILY = FONT
 
 KIND_COLOUR = {"pin": BLUE, "normal": SKY, "load": VERMILION, "gravity": GREEN, "inertia": PURPLE,
                "driver": ORANGE}
@@ -73,12 +89,11 @@ def fbd(result: Result, cr: CaseResult, body: str, member: Member) -> Canvas:
         p = T(f.point)
         L = arrow_len(mag, biggest)
         colour = KIND_COLOUR.get(f.kind, BLACK)
-        if float(np.dot(u, mid - p)) > 0:  # pushes towards the body: head at the point
-            head = p - u * (PIN + 1.0)
-            tail = head - u * L
-        else:
-            tail = p + u * (PIN + 1.0)
-            head = tail + u * L
+        push = (p - u * (L + PIN + 1.0), p - u * (PIN + 1.0))  # head at the point
+        pull = (p + u * (PIN + 1.0), p + u * (L + PIN + 1.0))  # tail at the point
+        options = [push, pull] if float(np.dot(u, mid - p)) > 0 else [pull, push]
+        drawn = [(t, h) for _f, t, h, _c in arrows]
+        tail, head = options[1] if _crowded(options[0], drawn) and not _crowded(options[1], drawn) else options[0]
         cv.arrow(tail, head, colour, 1.4, gid=f"force-{f.name}")
         arrows.append((f, tail, head, colour))
     for name, c in member.couples:
@@ -110,6 +125,11 @@ def fbd(result: Result, cr: CaseResult, body: str, member: Member) -> Canvas:
         txt = f"{force_name(pr, link, f, key)} = {force_text(pr, float(np.hypot(*f.vector)))}"
         cv.label(txt, [tail, (tail + head) / 2], colour, clear=3.0, prefer=tail - head)
     return cv
+
+
+def _crowded(seg, drawn, near: float = 6.0) -> bool:
+    """Whether arrow *seg* runs within *near* points of an arrow already drawn."""
+    return any(seg_distance(seg[0], seg[1], t, h) < near for t, h in drawn)
 
 
 def _on_body(link: Linkage, body: str, point: str) -> bool:
@@ -162,43 +182,196 @@ def polygon(result: Result, cr: CaseResult, member: Member, title: str) -> Canva
 
 def _title(cv: Canvas, text: str) -> None:
     x0, _, x1, y1 = cv.extent()
-    cv.text(((x0 + x1) / 2, y1 + 10.0), text, BLACK, 8.5, weight="bold")
+    cv.text(((x0 + x1) / 2, y1 + 11.0), text, BLACK, 9.0)
 
 
-def member_figures(result: Result) -> list[tuple[str, str, object]]:
+def motion_polygon(result: Result, cr: CaseResult, which: str) -> Canvas:
+    """Velocity (*which* = "vel") or acceleration ("acc") polygon: every point's image from the pole o."""
+    pr = result.problem
+    link = cr.solution.linkage
+    lu = pr.units["length"]
+    unit = f"{lu}/s" if which == "vel" else pr.units.get("acceleration", f"{lu}/s**2")
+    si = "m/s" if which == "vel" else "m/s**2"
+    sym = "v" if which == "vel" else "a"
+    colour = BLUE if which == "vel" else VERMILION
+    vec = {pr.point(n): np.asarray(p.vel() if which == "vel" else p.acc(), float) for n, p in link.points.items()}
+    for body, st in cr.solution.states.items():
+        if st.mass or st.inertia:
+            g = np.asarray(st.v_g if which == "vel" else st.a_g, float)
+            if not any(np.allclose(g, v) for v in vec.values()):
+                vec[f"G{pr.label(body)}"] = g
+    biggest = max(float(np.hypot(*v)) for v in vec.values())
+    cv = Canvas()
+    if biggest <= 0:
+        cv.text((0.0, 0.0), "all points at rest")
+        return cv
+    s = POLY_SIZE / biggest
+    img = {n: v * s for n, v in vec.items()}
+    o = np.zeros(2)
+    still = [n for n, v in vec.items() if float(np.hypot(*v)) < 1e-9 * biggest]
+    pos = {pr.point(n): p for n, p in link.points.items()}
+    bars = [(pr.point(a), pr.point(b)) for pairs in _bars(link).values() for a, b in pairs]
+    for a, b in bars:  # relative motion of two points of one link: dashed
+        if a in img and b in img and a not in still or b not in still:
+            cv.line([img[a], img[b]], GREY, 0.8, "--", z=1.0)
+    for n, v in img.items():
+        if n not in still:
+            cv.arrow(o, v, colour, 1.3, gid=f"{which}-{n}")
+    cv.circle(o, 2.0, BLACK, BLACK, 0.5)
+    cv.label("o" + (f" ({', '.join(still)})" if still else ""), o, BLACK, clear=3.0, priority=-1)
+    mid = np.mean(list(img.values()), axis=0)
+    for n, v in img.items():
+        if n in still:
+            continue
+        val = fmt(units.convert(float(np.hypot(*vec[n])), si, unit), 4)
+        cv.label(f"{sym}{n} = {val} {units.pretty(unit)}", [v, v * 0.6], colour, clear=3.0, prefer=v - mid)
+    _ = pos
+    fu = units.pretty(unit)
+    per_pt = units.convert(1.0 / s, si, unit)
+    bar_v = nice(POLY_SIZE / 3 * per_pt)
+    Lp = bar_v / per_pt
+    x0, y0, _, _ = cv.extent()
+    y = y0 - 12.0
+    cv.line([(x0, y), (x0 + Lp, y)], BLACK, 1.2, cap="butt")
+    for xx in (x0, x0 + Lp):
+        cv.line([(xx, y - 3), (xx, y + 3)], BLACK, 0.8, cap="butt")
+    cv.text((x0 + Lp + 4, y), f"{fmt(bar_v)} {fu}", ha="left")
+    return cv
+
+
+def _bars(link: Linkage) -> dict[str, list[tuple[str, str]]]:
+    from gradekit.figures.mech import BARS
+
+    return BARS.get(link.kind, {})
+
+
+def torque_cycle(result: Result, n: int = 72):
+    """The driving torque (or force) over a full crank cycle, the asked positions marked."""
+    from matplotlib.figure import Figure
+
+    from gradekit.errors import GeometryError
+    from gradekit.pipeline import fill, solve_case
+
+    pr = result.problem
+    theta = pr.inputs["theta"]
+    tp = pr.parameters[theta]
+    base = {k: v for k, v in result.values.items() if k in pr.parameters and not pr.parameters[k].expr}
+    full_turn = units.convert(360.0, "deg", tp.unit)
+    drv_force = result.cases[0].solution.linkage.driver.kind == "force"
+    out_unit = pr.units["force"] if drv_force else pr.units["torque"]
+    si = "N" if drv_force else "N*m"
+    xs, ys = [], []
+    for k in range(n + 1):
+        x = full_turn * k / n
+        try:
+            cr = solve_case(pr, fill(pr, {**base, theta: x}))
+            y = units.convert(cr.solution.driver, si, out_unit)
+        except GeometryError:
+            y = math.nan
+        xs.append(x)
+        ys.append(y)
+    fig = Figure(figsize=(5.6, 2.9), dpi=72)
+    ax = fig.add_axes((0.13, 0.17, 0.84, 0.72))
+    ax.plot(xs, ys, color=BLUE, lw=1.4)
+    ax.axhline(0.0, color=GREY, lw=0.6)
+    key = driver_key(result)
+    marks = sorted((c.values[theta], units.convert(c.solution.driver, si, out_unit), c.name) for c in result.cases)
+    ax.plot([m[0] for m in marks], [m[1] for m in marks], "o", color=VERMILION, ms=5, zorder=5)
+    finite = [y for y in ys if math.isfinite(y)] + [m[1] for m in marks]
+    lo, hi = min(finite), max(finite)
+    pad = 0.18 * (hi - lo or 1.0)
+    ax.set_ylim(lo - pad, hi + pad)
+    ax.set_xlim(0.0, full_turn)
+    for i, (x, y, name) in enumerate(marks):
+        up = (i % 2 == 0) if y < hi - pad else False
+        ax.annotate(f"{name}: {fmt(y, 4)}", (x, y), xytext=(0, 8 if up else -12), textcoords="offset points",
+                    ha="center", va="center", fontsize=7.5, color=VERMILION, family=FONT_FAMILY)
+    u = units.pretty(tp.unit)
+    ax.set_xlabel(f"crank angle {tp.symbol or theta} ({u})", fontsize=8, family=FONT_FAMILY)
+    ax.set_ylabel(f"{key} ({units.pretty(out_unit)})", fontsize=8, family=FONT_FAMILY)
+    ax.tick_params(labelsize=7.5)
+    if units.pretty(tp.unit) == "°":
+        ax.set_xticks([0, 60, 120, 180, 240, 300, 360])
+    ax.set_title(f"Driving {'force' if drv_force else 'torque'} {key} over one crank turn", fontsize=9,
+                 family=FONT_FAMILY)
+    return fig
+
+
+def key_figure_specs(result: Result) -> list[tuple[str, str, object]]:
+    """(slug, caption, make) of every key figure; *make()* draws it (so each can be timed alone).
+
+    Slugs are lower-case letters, digits and hyphens, unique within the variant.
+    """
+    import re
+
+    out = []
+    seen: set[str] = set()
+    for slug, cap, make in _specs(result):
+        slug = re.sub(r"[^a-z0-9]+", "-", slug.lower()).strip("-") or "figure"
+        base, n = slug, 2
+        while slug in seen:
+            slug, n = f"{base}-{n}", n + 1
+        seen.add(slug)
+        out.append((slug, cap, make))
+    return out
+
+
+def _specs(result: Result) -> list[tuple[str, str, object]]:
     pr = result.problem
     many = len(result.cases) > 1
-    out = []
+    out: list[tuple[str, str, object]] = []
     for cr in result.cases:
         tag, ctag = _case_tag(cr, many)
         for body, member in cr.solution.total.members.items():
             if not member.forces:
                 continue
             lab = pr.label(body)
-            left = fbd(result, cr, body, member)
-            _title(left, f"Free-body diagram of link {lab}")
-            panels = [left]
-            if len(member.forces) >= 2:
-                panels.append(polygon(result, cr, member, f"Force polygon of link {lab}"))
             kind = {"two-force": "a two-force member", "three-force": "a three-force member",
                     "two-forces-and-couple": "two forces and a couple"}.get(member.kind, "")
-            cap = f"Link {lab}{ctag}: free-body diagram and force polygon" + (f" ({kind})" if kind else "")
+            with_poly = len(member.forces) >= 2 and member.kind != "two-force"
+            cap = (f"Link {lab}{ctag}: free-body diagram" + (" and force polygon" if with_poly else "")
+                   + (f" ({kind})" if kind else ""))
             if member.kind == "three-force" and member.concurrency is not None:
                 cap += "; K is the point where the three lines of action meet"
-            out.append((f"fbd-{lab}{tag}", cap, render(row(panels))))
+            out.append((f"fbd-{lab}{tag}", cap,
+                        lambda cr=cr, body=body, member=member: _fbd_figure(result, cr, body, member)))
         groups = cr.solution.groups
         if len(groups) > 1:
             for gname, g in groups.items():
-                panels = []
-                for body, member in g.members.items():
-                    if len(member.forces) >= 2:
-                        panels.append(polygon(result, cr, member, f"Link {pr.label(body)}"))
-                if panels:
+                if any(len(m.forces) >= 2 and m.kind != "two-force" for m in g.members.values()):
+                    panels = _maker(result, cr, g)
                     glab = gname.split(":", 1)[1] if ":" in gname else gname
                     gl = f"inertia of link {pr.label(glab)}" if gname.startswith("inertia:") else gname
                     slug = f"group-{pr.label(glab) if ':' in gname else gname}{tag}"
-                    out.append((slug, f"Sub-problem with {gl} alone{ctag}: force polygons", render(row(panels))))
+                    out.append((slug, f"Sub-problem with {gl} alone{ctag}: force polygons", panels))
+        if pr.analysis == "dynamic":
+            for which, word in (("vel", "Velocity"), ("acc", "Acceleration")):
+                out.append((f"{which}-polygon{tag}", f"{word} polygon{ctag}: images of the points from the pole o; "
+                            "dashed lines join points of one link (relative motion)",
+                            lambda cr=cr, which=which: render(motion_polygon(result, cr, which))))
+    if many and isinstance(pr.inputs.get("theta"), str) and pr.inputs["theta"] in pr.parameters:
+        names = ", ".join(str(c.name) for c in result.cases)
+        out.append(("torque-cycle", f"Driving torque over one crank turn; the asked positions {names} marked",
+                    lambda: torque_cycle(result)))
     return out
 
 
-__all__ = ["member_figures", "GREY", "GROUND", "math"]
+def _fbd_figure(result: Result, cr: CaseResult, body: str, member: Member):
+    lab = result.problem.label(body)
+    left = fbd(result, cr, body, member)
+    _title(left, f"Free-body diagram of link {lab}")
+    panels = [left]
+    if len(member.forces) >= 2 and member.kind != "two-force":
+        panels.append(polygon(result, cr, member, f"Force polygon of link {lab}"))
+    return render(row(panels))
+
+
+def _maker(result: Result, cr: CaseResult, g):
+    def make():
+        return render(row([polygon(result, cr, m, f"Link {result.problem.label(b)}") for b, m in g.members.items()
+                           if len(m.forces) >= 2 and m.kind != "two-force"]))
+    return make
+
+
+
+

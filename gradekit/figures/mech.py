@@ -97,7 +97,15 @@ def draw_linkage(cv: Canvas, link: Linkage, T: ToPt, bodies: set[str] | None = N
             if a not in P or b not in P:
                 continue
             slot = body == "lever" and link.kind in SLOTTED
-            bar(cv, P[a], P[b], f"link-{body}" if (a, b) == pairs[0] else None, colour, slot)
+            pa, pb = P[a], P[b]
+            if slot:  # the slot runs over O4, C and the block at A, whatever their order
+                u = (P["A"] - P["O4"]) / max(float(np.hypot(*(P["A"] - P["O4"]))), 1e-9)
+                ts = [0.0, float(np.dot(P["C"] - P["O4"], u)), float(np.dot(P["A"] - P["O4"], u))]
+                ext = SLOT_BLOCK[0] / 2 + 3.0
+                lo_t = min(ts) - (ext if min(ts) == ts[2] else 0.0)
+                hi_t = max(ts) + (ext if max(ts) == ts[2] else 0.0)
+                pa, pb = P["O4"] + u * lo_t, P["O4"] + u * hi_t
+            bar(cv, pa, pb, f"link-{body}" if (a, b) == pairs[0] else None, colour, slot)
     # ground line between fixed pivots (frame), thin dash-dot
     fixed = [j.point for j in link.joints if isinstance(j, Revolute) and GROUND in (j.a, j.b)]
     if ground and bodies is None and len(fixed) >= 2:
@@ -115,7 +123,9 @@ def draw_linkage(cv: Canvas, link: Linkage, T: ToPt, bodies: set[str] | None = N
                 n = np.array([-u[1], u[0]])
                 half = size[1] / 2 + 0.8
                 span = size[0] * 1.7
-                for sgn in (1.0, -1.0):
+                others = [p for p in P.values() if float(np.hypot(*(p - c))) > 1e-6]
+                side = float(np.mean([np.dot(p - c, n) for p in others])) if others else 1.0
+                for sgn in ((-1.0,) if side > 0 else (1.0,)):
                     a, b = c - u * span + sgn * n * half, c + u * span + sgn * n * half
                     hatch_line(cv, a, b, sgn * n)
     for j in link.joints:

@@ -1,0 +1,150 @@
+"""Figures: every bank problem draws; SVG is deterministic; the scene hides answers; true scale is exact."""
+
+from __future__ import annotations
+
+import math
+import re
+from functools import cache
+
+import pytest
+
+from gradekit import figures
+from gradekit.bank.registry import load_bank
+from gradekit.report import fmt
+from gradekit.sampling import variant
+
+BANK = load_bank()
+IDS = sorted(BANK)
+
+
+@cache
+def result(pid: str, student: str | None = None):
+    return variant(BANK[pid], student=student, course="MEG373", salt="figures").result
+
+
+def svg_text(svg: bytes) -> str:
+    return " ".join(re.findall(r"<text[^>]*>([^<]*)</text>", svg.decode()))
+
+
+@pytest.mark.parametrize("pid", IDS)
+def test_every_problem_draws_scene_and_key(pid):
+    r = result(pid, "s1")
+    svg = figures.to_svg(figures.scene(r))
+    assert svg.startswith(b"<?xml")
+    if r.problem.figure.true_scale:
+        figures.to_svg(figures.scene(r, true_scale=True))
+    keys = figures.key_figures(r)
+    assert keys and len({slug for slug, _, _ in keys}) == len(keys)
+    for slug, caption, fig in keys:
+        assert re.fullmatch(r"[a-z0-9-]+", slug) and caption
+        figures.to_svg(fig)
+
+
+def test_same_variant_gives_identical_svg():
+    pid = IDS[0]
+    a = figures.to_svg(figures.scene(result(pid, "s2")))
+    b = figures.to_svg(figures.scene(variant(BANK[pid], student="s2", course="MEG373", salt="figures").result))
+    assert a == b
+    ka = [figures.to_svg(f) for _, _, f in figures.key_figures(result(pid, "s2"))]
+    kb = [figures.to_svg(f) for _, _, f in figures.key_figures(result(pid, "s2"))]
+    assert ka == kb
+
+
+@pytest.mark.parametrize("pid", IDS)
+def test_scene_shows_no_answer(pid):
+    r = result(pid, "s3")
+    text = svg_text(figures.to_svg(figures.scene(r)))
+    for a in r.answers:
+        if a.of == "driver" or a.of.startswith("F["):
+            for sig in (3, 4, 5):
+                shown = fmt(abs(a.value), sig)
+                assert not re.search(rf"(?<![\d.]){re.escape(shown)}(?![\d])", text) or _is_given(r, shown), \
+                    (a.key, shown, text)
+
+
+def _is_given(r, shown: str) -> bool:
+    return any(fmt(v) == shown or fmt(v, 4) == shown for v in r.values.values())
+
+
+def test_static_scene_has_no_centre_of_mass_and_dynamic_has():
+    static = next(p for p in IDS if BANK[p].analysis == "static")
+    assert b'id="com-' not in figures.to_svg(figures.scene(result(static)))
+    dyn = [p for p in IDS if "com" in BANK[p].figure.show]
+    for pid in dyn:
+        assert b'id="com-' in figures.to_svg(figures.scene(result(pid)))
+
+
+def _path_points(svg: str, gid: str) -> list[tuple[float, float]]:
+    m = re.search(rf'<g id="{re.escape(gid)}">\s*<path d="([^"]+)"', svg)
+    assert m, gid
+    nums = [float(x) for x in re.findall(r"-?\d+(?:\.\d+)?", m.group(1))]
+    return list(zip(nums[::2], nums[1::2], strict=True))
+
+
+def test_true_scale_is_exact():
+    pid = "ch5-ex5-1"  # rod BC = 70 mm at scale 1:1
+    r = result(pid)
+    assert r.problem.figure.true_scale == 1.0
+    fig = figures.scene(r, true_scale=True)
+    w_in, h_in = fig.get_size_inches()
+    svg = figures.to_svg(fig).decode()
+    w = float(re.search(r'width="([\d.]+)pt"', svg).group(1))
+    h = float(re.search(r'height="([\d.]+)pt"', svg).group(1))
+    assert w == pytest.approx(w_in * 72, abs=0.01) and h == pytest.approx(h_in * 72, abs=0.01)
+    (x0, y0), (x1, y1) = _path_points(svg, "link-rod")[:2]
+    length_mm = math.hypot(x1 - x0, y1 - y0) / 72 * 25.4
+    rod_mm = r.values["l"]
+    assert length_mm == pytest.approx(rod_mm, abs=0.1)
+    assert "Scale 1:1" in svg_text(svg.encode())
+
+
+def test_true_scale_quarter_in_inches():
+    pid = "s002-inertia-link2"  # link O2A in inches at 1:4
+    r = result(pid)
+    svg = figures.to_svg(figures.scene(r, true_scale=True)).decode()
+    (x0, y0), (x1, y1) = _path_points(svg, "link-crank")[:2]
+    assert math.hypot(x1 - x0, y1 - y0) / 72 == pytest.approx(r.values["r2"] * 0.25, abs=0.1 / 25.4)
+    assert "Scale 1:4" in svg_text(svg.encode())
+
+
+def _overlaps(fig) -> list[tuple[str, str]]:
+    fig.canvas.draw() if hasattr(fig.canvas, "draw") else None
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    canvas = FigureCanvasAgg(fig)
+    renderer = canvas.get_renderer()
+    texts = [t for t in fig.axes[0].texts if t.get_text()]
+    boxes = [t.get_window_extent(renderer) for t in texts]
+    bad = []
+    for i in range(len(boxes)):
+        for j in range(i + 1, len(boxes)):
+            a, b = boxes[i], boxes[j]
+            if min(a.x1, b.x1) - max(a.x0, b.x0) > 0.5 and min(a.y1, b.y1) - max(a.y0, b.y0) > 0.5:
+                bad.append((texts[i].get_text(), texts[j].get_text()))
+    return bad
+
+
+@pytest.mark.parametrize("pid", IDS[::2])
+def test_labels_do_not_overlap(pid):
+    r = result(pid, "s4")
+    assert _overlaps(figures.scene(r)) == []
+    for _slug, _cap, fig in figures.key_figures(r)[:4]:
+        if len(fig.axes) == 1 and fig.axes[0].axison is False:
+            assert _overlaps(fig) == []
+
+
+def test_write_figures(tmp_path):
+    paths = figures.write_figures(result(IDS[0]), tmp_path, "svg")
+    assert paths and all(p.exists() and p.suffix == ".svg" for p in paths)
+    png = figures.write_figures(result(IDS[0]), tmp_path / "png", "png")
+    assert png[0].read_bytes()[:4] == b"\x89PNG"
+
+
+def test_solver_does_not_import_matplotlib():
+    import subprocess
+    import sys
+
+    code = ("import sys; from gradekit.pipeline import solve_problem; from gradekit.sampling import variant; "
+            "print('matplotlib' in sys.modules)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "False"
