@@ -8,6 +8,7 @@ only here, never by the solver) with the Agg backend chosen lazily.
 from __future__ import annotations
 
 import io
+import re
 from pathlib import Path
 
 import matplotlib
@@ -71,7 +72,8 @@ def write_figures(result: Result, out_dir: Path, fmt: str = "svg") -> list[Path]
     if result.problem.figure.true_scale:
         figs.append(("scene-true-scale", scene(result, true_scale=True)))
     if len(result.cases) > 1:
-        figs += [(f"scene-{c.name}", scene(result, c.name)) for c in result.cases[1:]]
+        figs += [(f"scene-{re.sub(r'[^a-z0-9]+', '-', str(c.name).lower())}", scene(result, c.name))
+                 for c in result.cases[1:]]
     paths = []
     for slug, fig in figs:
         p = out_dir / f"{pid}-{slug}.{fmt}"

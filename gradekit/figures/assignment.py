@@ -81,7 +81,8 @@ def pick_case(result: Result, case: str | None) -> CaseResult:
 
 
 def driver_key(result: Result) -> str:
-    for a in result.answers:
+    """The name the problem gives the driving torque or force (its answer key), else T."""
+    for a in result.problem.answers:
         if a.of == "driver":
             return a.key
     return "T"
@@ -253,13 +254,8 @@ def scale_note(cv: Canvas, pr, k: float, s: float, biggest: float) -> None:
     per_m = units.factor("m", unit)
     # a scale bar of a round mechanism length about 1/4 of the drawing
     mech_len = nice((x1 - x0) / s * per_m / 4)
-    Lp = mech_len / per_m * s
-    y = y0 - 14.0
-    cv.line([(x0, y), (x0 + Lp, y)], BLACK, 1.2, gid="scalebar", cap="butt")
-    for xx in (x0, x0 + Lp):
-        cv.line([(xx, y - 3), (xx, y + 3)], BLACK, 0.8, cap="butt")
     u = units.pretty(unit)
-    cv.text((x0 + Lp + 4, y), f"{fmt(mech_len)} {u}", ha="left")
+    y = cv.scale_bar(mech_len / per_m * s, f"{fmt(mech_len)} {u}", 14.0, gid="scalebar")
     paper = fmt(mech_len * k)
     lines = [f"Scale {ratio_text(k)} — {paper} {u} on paper = {fmt(mech_len)} {u}"]
     if pr.figure.force_scale:

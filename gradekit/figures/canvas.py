@@ -278,6 +278,16 @@ class Canvas:
         self.text(best, s, color, size, gid=gid)
         return np.asarray(best)
 
+    def scale_bar(self, length: float, text: str, gap: float = 12.0, gid: str | None = None) -> float:
+        """A bar of *length* points with end ticks and *text*, under the drawing; returns its y."""
+        x0, y0, _, _ = self.extent()
+        y = y0 - gap
+        self.line([(x0, y), (x0 + length, y)], BLACK, 1.2, gid=gid, cap="butt")
+        for xx in (x0, x0 + length):
+            self.line([(xx, y - 3), (xx, y + 3)], BLACK, 0.8, cap="butt")
+        self.text((x0 + length + 4, y), text, ha="left")
+        return y
+
     # -- composition ------------------------------------------------------------------------
     def extent(self) -> tuple[float, float, float, float]:
         self.place()

@@ -169,13 +169,7 @@ def polygon(result: Result, cr: CaseResult, member: Member, title: str) -> Canva
     fu = pr.units["force"]
     per_pt = units.convert(1.0 / s, "N", fu)
     bar_f = nice(POLY_SIZE / 3 * per_pt)
-    Lp = bar_f / per_pt
-    x0, y0, _, _ = cv.extent()
-    y = y0 - 12.0
-    cv.line([(x0, y), (x0 + Lp, y)], BLACK, 1.2, cap="butt")
-    for xx in (x0, x0 + Lp):
-        cv.line([(xx, y - 3), (xx, y + 3)], BLACK, 0.8, cap="butt")
-    cv.text((x0 + Lp + 4, y), f"{fmt(bar_f)} {units.pretty(fu)}", ha="left")
+    cv.scale_bar(bar_f / per_pt, f"{fmt(bar_f)} {units.pretty(fu)}")
     _title(cv, title)
     return cv
 
@@ -209,7 +203,6 @@ def motion_polygon(result: Result, cr: CaseResult, which: str) -> Canvas:
     img = {n: v * s for n, v in vec.items()}
     o = np.zeros(2)
     still = [n for n, v in vec.items() if float(np.hypot(*v)) < 1e-9 * biggest]
-    pos = {pr.point(n): p for n, p in link.points.items()}
     bars = [(pr.point(a), pr.point(b)) for pairs in _bars(link).values() for a, b in pairs]
     for a, b in bars:  # relative motion of two points of one link: dashed
         if a in img and b in img and a not in still or b not in still:
@@ -225,17 +218,9 @@ def motion_polygon(result: Result, cr: CaseResult, which: str) -> Canvas:
             continue
         val = fmt(units.convert(float(np.hypot(*vec[n])), si, unit), 4)
         cv.label(f"{sym}{n} = {val} {units.pretty(unit)}", [v, v * 0.6], colour, clear=3.0, prefer=v - mid)
-    _ = pos
-    fu = units.pretty(unit)
     per_pt = units.convert(1.0 / s, si, unit)
     bar_v = nice(POLY_SIZE / 3 * per_pt)
-    Lp = bar_v / per_pt
-    x0, y0, _, _ = cv.extent()
-    y = y0 - 12.0
-    cv.line([(x0, y), (x0 + Lp, y)], BLACK, 1.2, cap="butt")
-    for xx in (x0, x0 + Lp):
-        cv.line([(xx, y - 3), (xx, y + 3)], BLACK, 0.8, cap="butt")
-    cv.text((x0 + Lp + 4, y), f"{fmt(bar_v)} {fu}", ha="left")
+    cv.scale_bar(bar_v / per_pt, f"{fmt(bar_v)} {units.pretty(unit)}")
     return cv
 
 
