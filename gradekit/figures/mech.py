@@ -123,8 +123,11 @@ def draw_linkage(cv: Canvas, link: Linkage, T: ToPt, bodies: set[str] | None = N
                 n = np.array([-u[1], u[0]])
                 half = size[1] / 2 + 0.8
                 span = size[0] * 1.7
-                others = [p for p in P.values() if float(np.hypot(*(p - c))) > 1e-6]
-                side = float(np.mean([np.dot(p - c, n) for p in others])) if others else 1.0
+                # the guide goes on the side away from the link that drives the block
+                here = [k for k, p in P.items() if float(np.hypot(*(p - c))) < 1e-6]
+                ends = [P[b if a in here else a] for pairs in bars.values() for a, b in pairs
+                        if (a in here) != (b in here)]
+                side = float(np.mean([np.dot(p - c, n) for p in ends])) if ends else 1.0
                 for sgn in ((-1.0,) if side > 0 else (1.0,)):
                     a, b = c - u * span + sgn * n * half, c + u * span + sgn * n * half
                     hatch_line(cv, a, b, sgn * n)
