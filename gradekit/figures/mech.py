@@ -110,7 +110,7 @@ def draw_linkage(cv: Canvas, link: Linkage, T: ToPt, bodies: set[str] | None = N
     fixed = [j.point for j in link.joints if isinstance(j, Revolute) and GROUND in (j.a, j.b)]
     if ground and bodies is None and len(fixed) >= 2:
         a, b = T(np.asarray(fixed[0].pos())), T(np.asarray(fixed[1].pos()))
-        cv.line([a, b], BLACK, 0.6, "-.", z=1.0, obstacle=False)
+        cv.line([a, b], BLACK, 0.6, "-.", z=1.0)
     for j in link.joints:
         if isinstance(j, Prismatic):
             c = T(np.asarray(j.point.pos()))
