@@ -217,3 +217,24 @@ def figures(
     v = _variant(resolve(problem, bank), published, student, None, course, salt)
     for path in write_figures(v.result, Path(out), fmt):
         click.echo(str(path))
+
+
+@main.command()
+@click.argument("assignment", type=click.Path(exists=True, dir_okay=False))
+@click.option("--roster", required=True, type=click.Path(exists=True, dir_okay=False), help="Class roster CSV.")
+@click.option("--out", required=True, type=click.Path(file_okay=False), help="Output folder.")
+@click.option("--jobs", type=click.IntRange(1, 64), default=1, show_default=True, help="Worker processes.")
+@click.option("--student", default=None, help="Regenerate only this student's documents.")
+@click.option("--no-keys", is_flag=True, help="Assignments and answer templates only (no worked keys).")
+def generate(assignment: str, roster: str, out: str, jobs: int, student: str | None, no_keys: bool) -> None:
+    """Write every student's assignment PDF and answer template, the worked keys, key.csv and the manifest."""
+    from pathlib import Path
+
+    from gradekit.documents import generate as run
+
+    summary = run(
+        Path(assignment), Path(roster), Path(out), jobs=jobs, student=student, keys=not no_keys, progress=True
+    )
+    for w in summary.warnings:
+        log.warning("warning: %s", w)
+    log.info("wrote documents for %d student(s) to %s in %.1f s", summary.students, out, summary.seconds)
