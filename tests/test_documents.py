@@ -175,3 +175,25 @@ def test_escaping():
     assert text("#x $y$") == '#"#x $y$"'
     assert isinstance(num(-1.5), Typ) and num(-1.5) == "−1.5"
     assert paragraphs("a\nb\n\nc") == '#"a b"\n\n#"c"'
+
+
+def _files(folder: Path, keys: bool) -> dict:
+    return {p.relative_to(folder): p.read_bytes() for p in folder.rglob("*")
+            if p.is_file() and p.name != "manifest.json" and (keys == ("keys" in p.parts or p.name == "keys.pdf"))}
+
+
+def test_parallel_run_writes_the_same_files(run, tmp_path):
+    asg, roster, out, _ = run
+    other = tmp_path / "out"
+    generate(asg, roster, other, jobs=2, progress=False)
+    assert _files(other, keys=False) == _files(out, keys=False)
+    assert set(_files(other, keys=True)) == set(_files(out, keys=True))
+
+
+@pytest.mark.xfail(reason="figures.key_figures depends on PYTHONHASHSEED (a set iterated in "
+                   "gradekit/figures/key.py), so worker processes draw FBDs differently", strict=False)
+def test_parallel_keys_are_identical(run, tmp_path):
+    asg, roster, out, _ = run
+    other = tmp_path / "out"
+    generate(asg, roster, other, jobs=2, progress=False)
+    assert _files(other, keys=True) == _files(out, keys=True)

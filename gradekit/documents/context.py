@@ -91,7 +91,7 @@ def _worked(res: Result, entries, key_pictures) -> dict:
         if par is None:
             continue
         given.append({"symbol": par.symbol or name, "description": par.description,
-                      "value": num(value, 6), "unit": par.unit, "derived": bool(par.expr)})
+                      "value": quantity(value, par.unit, 6), "derived": bool(par.expr)})
     cases = [_case(res, c) for c in res.cases]
     answers = [{"key": e.key, "description": e.description, "value": num(e.value, 5), "unit": e.unit,
                 "sign": e.sign_convention, "tolerance": e.tolerance.describe(), "points": num(e.points, 4)}

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import logging
+import multiprocessing
 import re
 import shutil
 import sys
@@ -96,13 +97,15 @@ def generate(assignment: Path, roster: Path, out: Path, *, jobs: int = 1, studen
     try:
         with _bar(len(work), progress) as bar:
             if jobs <= 1 or len(work) <= 1:
-                _init(job)
+                _init(job, asg)
                 for s, safe in work:
                     done[s.student_id] = _one(s, safe)
                     bar.update(1)
             else:
                 chunk = max(1, min(8, len(work) // (4 * jobs)))
-                with ProcessPoolExecutor(jobs, initializer=_init, initargs=(job,)) as pool:
+                # spawn, not fork: a forked child inherits typst's and matplotlib's threads mid-lock
+                ctx = multiprocessing.get_context("spawn")
+                with ProcessPoolExecutor(jobs, mp_context=ctx, initializer=_init, initargs=(job,)) as pool:
                     for d in pool.map(_one_packed, work, chunksize=chunk):
                         done[d.student_id] = d
                         bar.update(1)
@@ -155,11 +158,11 @@ def _bar(n: int, progress: bool):
 _STATE: dict = {}
 
 
-def _init(job: _Job) -> None:
+def _init(job: _Job, asg: Assignment | None = None) -> None:
     out = Path(job.out)
     root = out / BUILD
     root.mkdir(parents=True, exist_ok=True)
-    _STATE.update(job=job, asg=load_assignment(job.assignment), out=out, root=root,
+    _STATE.update(job=job, asg=asg or load_assignment(job.assignment), out=out, root=root,
                   compiler=typeset.Compiler(root), fonts=typeset.available_fonts())
 
 
@@ -247,16 +250,13 @@ def _svg_width(svg: bytes) -> float:
 
 def _pictures(result, label: str, build: Path, safe: str, keys: bool, warnings: list[str], s: Student):
     """Write the student's scene(s) and, for keys, the key figures; return their `Picture`s."""
-    from gradekit import figures
-
     p = result.problem
     true_scale = p.method == "graphical" and p.figure.true_scale is not None
     scenes = []
     cases = [c.name for c in result.cases] if len(result.cases) > 1 else [None]
     for case in cases:
-        fig = figures.scene(result, case, true_scale=true_scale)
         name = f"{label}-scene{'-' + _slug(case) if case else ''}.svg"
-        svg = figures.to_svg(fig)
+        svg = _drawn(result, ("scene", case, true_scale))
         (build / name).write_bytes(svg)
         scale, wide = "", False
         if true_scale:
@@ -270,11 +270,38 @@ def _pictures(result, label: str, build: Path, safe: str, keys: bool, warnings: 
         scenes.append(Picture(f"/s/{safe}/{name}", caption, true_scale, scale, wide))
     pics = []
     if keys:
-        for slug, caption, fig in figures.key_figures(result):
+        for slug, caption, svg in _drawn(result, ("key",)):
             name = f"{label}-key-{_slug(slug)}.svg"
-            (build / name).write_bytes(figures.to_svg(fig))
+            (build / name).write_bytes(svg)
             pics.append(Picture(f"/s/{safe}/{name}", caption))
     return scenes, pics
+
+
+_DRAWN: dict[tuple, object] = {}
+_DRAWN_MAX = 256
+
+
+def _drawn(result, what: tuple):
+    """SVG of a scene, or (slug, caption, SVG) of the key figures, drawn once per distinct variant.
+
+    Students share a variant when a problem has few (or no) random parameters; drawing is most
+    of the cost of a run, so each process remembers the last few hundred it drew.
+    """
+    from gradekit import figures
+
+    p = result.problem
+    cache_key = (p.id, p.path, tuple(sorted(result.values.items())), what)
+    hit = _DRAWN.get(cache_key)
+    if hit is not None:
+        return hit
+    if what[0] == "scene":
+        out = figures.to_svg(figures.scene(result, what[1], true_scale=what[2]))
+    else:
+        out = [(slug, caption, figures.to_svg(fig)) for slug, caption, fig in figures.key_figures(result)]
+    if len(_DRAWN) >= _DRAWN_MAX:
+        _DRAWN.pop(next(iter(_DRAWN)))
+    _DRAWN[cache_key] = out
+    return out
 
 
 def _ratio(scale: float) -> str:

@@ -1,0 +1,76 @@
+"""Throughput of `gradekit generate`: students per minute, sheets alone and with worked keys.
+
+Run: ``python benchmarks/bench_generate.py [--quick]`` (quick: class size 30 only). Each line is
+one configuration: class size, worker processes, whether keys are written, wall time and students
+per minute (combined PDFs, key.csv and manifest included). Targets on a 2-core machine: sheets
+alone >= 450/min, with keys >= 200/min.
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import os
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from gradekit.documents import generate  # noqa: E402
+
+ASSIGNMENT = ROOT / "examples" / "hw5.yaml"
+NAMES = ["Selam Haile", "Chidi Okafor", "Zoë Łukasiewicz-Núñez", "Ana María Pérez", "Jonas Müller",
+         "Mary O'Brien", "Nguyễn Văn An", "Olusegun Adeyemi"]
+TARGETS = {False: 450.0, True: 200.0}
+
+
+def roster(path: Path, n: int) -> Path:
+    """A synthetic roster of *n* students (Latin names, some with diacritics)."""
+    lines = ["student_id,name,email,section"]
+    lines += [f"{10001 + i},{NAMES[i % len(NAMES)]},s{i}@example.edu,{'AB'[i % 2]}" for i in range(n)]
+    path.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    return path
+
+
+def measure(n: int, jobs: int, keys: bool) -> dict:
+    """Generate for a class of *n* into a temporary folder; return timings."""
+    with tempfile.TemporaryDirectory() as tmp:
+        r = roster(Path(tmp) / "roster.csv", n)
+        t0 = time.perf_counter()
+        generate(ASSIGNMENT, r, Path(tmp) / "out", jobs=jobs, keys=keys, progress=False)
+        seconds = time.perf_counter() - t0
+        sizes = {name: (Path(tmp) / "out" / name).stat().st_size
+                 for name in ("assignments.pdf", "keys.pdf") if (Path(tmp) / "out" / name).exists()}
+    per_min = 60.0 * n / seconds
+    return {"students": n, "jobs": jobs, "keys": keys, "seconds": round(seconds, 2),
+            "per_minute": round(per_min, 1), "target": TARGETS[keys], "meets": per_min >= TARGETS[keys],
+            "bytes": sizes}
+
+
+def run(quick: bool) -> dict:
+    """Every configuration: class sizes 30 (and 300 unless *quick*), jobs 1 and 2, keys off and on."""
+    logging.getLogger("gradekit").setLevel(logging.ERROR)
+    sizes = [30] if quick else [30, 300]
+    results = []
+    for n in sizes:
+        for keys in (False, True):
+            for jobs in (1, 2):
+                r = measure(n, jobs, keys)
+                results.append(r)
+                print(f"students={n:<4} jobs={jobs} keys={'yes' if keys else 'no ':<3} "
+                      f"{r['seconds']:>7.2f} s  {r['per_minute']:>6.1f} students/min  "
+                      f"(target {r['target']:.0f}: {'met' if r['meets'] else 'NOT met'})", flush=True)
+    return {"cpus": os.cpu_count(), "assignment": str(ASSIGNMENT.relative_to(ROOT)), "results": results}
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--quick", action="store_true", help="class size 30 only")
+    run(ap.parse_args().quick)
+
+
+if __name__ == "__main__":
+    main()
