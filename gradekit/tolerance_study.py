@@ -45,8 +45,8 @@ DETECT_MIN = 0.99
 FORCE_SCALE_MM = 80.0  # the largest force of a polygon, drawn on paper
 READ_MM = 0.5
 READ_DEG = 0.5
-REL_GRID = (0.001, 0.002, 0.003, 0.005, 0.0075, 0.01, 0.015, 0.02, 0.025, 0.03, 0.04, 0.05, 0.075, 0.1)
-FLOOR_GRID = (0.0, 0.001, 0.003, 0.01, 0.03)  # absolute floor as a fraction of the answer scale
+REL_GRID = (0.001, 0.002, 0.003, 0.005, 0.0075, 0.01, 0.015, 0.02, 0.025, 0.03, 0.04, 0.05, 0.075, 0.1, 0.15, 0.2)
+FLOOR_GRID = (0.0, 0.001, 0.003, 0.01, 0.03, 0.1)  # absolute floor as a fraction of the answer scale
 DEG_GRID = (0.05, 0.1, 0.2, 0.3, 0.5, 0.75, 1.0, 1.5, 2.0, 3.0, 5.0)  # absolute, for angles
 
 
@@ -495,8 +495,10 @@ def study_choices(st: Study) -> list[Choice]:
 
 
 def kind_defaults(studies: list[Study]) -> dict[tuple[str, str], Choice]:
-    """One relative tolerance per (method, answer kind) over every answer of that kind: the
-    tightest grid value whose pooled false-reject rate is < 0.1 % (floors left per problem)."""
+    """One tolerance per (method, answer kind) over every answer of that kind: relative with a
+    floor of ``floor_frac`` × the answer's median scale (the largest same-unit answer of its
+    variant); among the pairs whose pooled false-reject rate is < 0.1 %, the one catching the
+    most of its worst mistake, then the smallest relative part."""
     out: dict[tuple[str, str], Choice] = {}
     pools: dict[tuple[str, str], list[AnswerData]] = {}
     for st in studies:
@@ -505,29 +507,37 @@ def kind_defaults(studies: list[Study]) -> dict[tuple[str, str], Choice]:
     for (method, kind), answers in pools.items():
         models = basis(method)
         grid = (
-            [(Tolerance("relative", 0.0, d), 0.0) for d in DEG_GRID]
+            [(0.0, d, 0.0) for d in DEG_GRID]
             if kind == "angle"
-            else [(Tolerance("relative", r, 0.0), 0.0) for r in REL_GRID]
+            else [(r, 0.0, f) for r in REL_GRID for f in FLOOR_GRID]
         )
-        chosen = None
-        for tol, f in grid:
-            scores = [evaluate(a, tol, models, f) for a in answers]
-            n_h = sum(int(np.isfinite(a.honest[m]).sum()) for a in answers for m in models)
-            bad = sum(
-                s.false_reject[m] * int(np.isfinite(a.honest[m]).sum())
-                for s, a in zip(scores, answers, strict=True)
-                for m in models
-            )
+        best = None
+        for rel, deg, f in grid:
+            n_h = bad = 0
             det: dict[str, list[float]] = {}
-            for s in scores:
+            for a in answers:
+                ref = float(np.nanmedian(a.scale)) if np.isfinite(a.scale).any() else 1.0
+                s = evaluate(a, Tolerance("relative", rel, deg or pipeline.sig_round(f * ref, 2)), models, f)
+                for m in models:
+                    n = int(np.isfinite(a.honest[m]).sum())
+                    n_h += n
+                    bad += s.false_reject[m] * n
                 for name, r in s.detection.items():
                     det.setdefault(name, []).append(r)
-            pooled = Score(tol, f, {"all": bad / max(n_h, 1)}, {k: float(np.mean(v)) for k, v in det.items()}, n_h)
-            chosen = Choice("*", method, "*", kind, pooled, pooled.worst_detection() >= DETECT_MIN, {})
-            if pooled.false_reject["all"] < FALSE_REJECT_MAX:
-                break
-        if chosen is not None:
-            out[(method, kind)] = chosen
+            pooled = Score(
+                Tolerance("relative", rel, deg),
+                f,
+                {"all": bad / max(n_h, 1)},
+                {k: float(np.mean(v)) for k, v in det.items()},
+                n_h,
+            )
+            c = Choice("*", method, "*", kind, pooled, pooled.worst_detection() >= DETECT_MIN, {})
+            feasible = pooled.false_reject["all"] < FALSE_REJECT_MAX
+            rank = (feasible, pooled.worst_detection() if feasible else -pooled.false_reject["all"], -rel - f)
+            if best is None or rank > best[0]:
+                best = (rank, c)
+        if best is not None:
+            out[(method, kind)] = best[1]
     return out
 
 

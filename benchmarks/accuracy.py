@@ -1,0 +1,358 @@
+"""Accuracy studies: tolerances from simulated students, Monte-Carlo stability, crank-angle
+resolution of a torque curve, figure resolution against time.
+
+``python benchmarks/accuracy.py [--quick]`` prints the markdown; `run` returns it with the data
+and writes PNG plots into ``benchmarks/plots/``.
+"""
+
+from __future__ import annotations
+
+import math
+import statistics
+import sys
+import time
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from gradekit import tolerance_study as ts  # noqa: E402
+from gradekit.bank.registry import load_bank  # noqa: E402
+from gradekit.errors import GradekitError  # noqa: E402
+from gradekit.keys import Tolerance  # noqa: E402
+from gradekit.pipeline import published_values, solve_problem  # noqa: E402
+
+PLOTS = Path(__file__).resolve().parent / "plots"
+
+
+def _pct(x: float) -> str:
+    return "—" if x is None or (isinstance(x, float) and math.isnan(x)) else f"{100 * x:.2f} %"
+
+
+def _tol(t: Tolerance, unit: str) -> str:
+    if t.rel == 0:
+        return f"±{t.abs:g} {unit}"
+    return f"±{100 * t.rel:g} %" + (f" (≥ {t.abs:g} {unit})" if t.abs else "")
+
+
+def tolerance_tables(studies: list[ts.Study]) -> tuple[str, dict]:
+    """Markdown: kind defaults, per-problem rates at the chosen tolerances, answers that fail."""
+    choices = {st.problem.id: ts.study_choices(st) for st in studies}
+    defaults = ts.kind_defaults(studies)
+    out = ["#### Recommended defaults per method and answer kind (pooled over the bank)", ""]
+    out += [
+        "| method | kind | tolerance | honest false-reject | min detection (mistake) | all mistakes ≥ 99 % |",
+        "|---|---|---|---|---|---|",
+    ]
+    for (method, kind), c in sorted(defaults.items()):
+        worst = min(c.score.detection.items(), key=lambda kv: kv[1], default=("—", 1.0))
+        tol = c.score.tolerance
+        text = f"±{tol.abs:g}°" if kind == "angle" else f"±{100 * tol.rel:g} %"
+        if c.score.floor_frac:
+            text += f", floor {100 * c.score.floor_frac:g} % of scale"
+        out.append(
+            f"| {method} | {kind} | {text} | {_pct(c.score.false_reject['all'])} | "
+            f"{_pct(worst[1])} ({worst[0]}) | {'yes' if c.both else 'no'} |"
+        )
+    out += ["", "#### Per problem, at the per-answer chosen tolerances", ""]
+    out += [
+        "| problem | method | variants × students | answers | max false-reject sf3 / sf4 / drawing | "
+        "min detection | answers short of 99 % | per-variant band fixes |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    for st in studies:
+        cs = choices[st.problem.id]
+
+        def mx(m, cs=cs):
+            return max((c.score.false_reject.get(m, math.nan) for c in cs), default=math.nan)
+
+        short = [c for c in cs if not c.both]
+        fixed = [c for c in short if c.per_variant and c.per_variant.worst_detection() >= ts.DETECT_MIN]
+        out.append(
+            f"| {st.problem.id} | {st.method} | {st.variants} × {st.per_variant} | {len(cs)} | "
+            f"{_pct(mx('sf3'))} / {_pct(mx('sf4'))} / {_pct(mx('graphical'))} | "
+            f"{_pct(min(c.score.worst_detection() for c in cs))} | {len(short)} | {len(fixed)} |"
+        )
+    out += ["", "#### Answers where one fixed tolerance cannot do both", ""]
+    out += [
+        "| problem | answer | kind | chosen | honest 99.9 % (sf3 / sf4 / drawing) "
+        "| missed mistake: detection, median size | per-variant band: false-reject, min detection |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    for st in studies:
+        a_by = st.answers
+        for c in choices[st.problem.id]:
+            if c.both:
+                continue
+            unit = a_by[c.key].unit
+            q = " / ".join(
+                f"{c.q999.get(m, math.nan):.3g}" + ("°" if c.kind == "angle" else "")
+                for m in ("sf3", "sf4", "graphical")
+            )
+            missed = "; ".join(f"{n}: {_pct(c.score.detection[n])}, {_pct(sz)}" for n, sz in c.missed.items())
+            pv = c.per_variant
+            pvs = f"{_pct(max(pv.false_reject.values()))}, {_pct(pv.worst_detection())}" if pv else "—"
+            out.append(
+                f"| {st.problem.id} | {c.key} | {c.kind} | {_tol(c.score.tolerance, unit)} | {q} | {missed} | {pvs} |"
+            )
+    data = {
+        "defaults": {
+            f"{m}/{k}": {
+                "rel": c.score.tolerance.rel,
+                "abs": c.score.tolerance.abs,
+                "floor_frac": c.score.floor_frac,
+                "false_reject": c.score.false_reject["all"],
+                "detection": c.score.detection,
+            }
+            for (m, k), c in defaults.items()
+        },
+        "choices": {
+            pid: [
+                {
+                    "key": c.key,
+                    "kind": c.kind,
+                    "rel": c.score.tolerance.rel,
+                    "abs": c.score.tolerance.abs,
+                    "false_reject": c.score.false_reject,
+                    "detection": c.score.detection,
+                    "both": c.both,
+                }
+                for c in cs
+            ]
+            for pid, cs in choices.items()
+        },
+    }
+    return "\n".join(out), data
+
+
+def plot_honest(studies: list[ts.Study], path: Path) -> None:
+    """99.9 % quantile of honest errors per answer, by kind and model."""
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4.2))
+    kinds = sorted({a.kind for st in studies for a in st.answers.values()} - {"angle"})
+    for ax, angle in zip(axes, (False, True), strict=True):
+        for j, m in enumerate(ts.MODELS):
+            xs, ys = [], []
+            for st in studies:
+                for a in st.answers.values():
+                    if (a.kind == "angle") != angle or m not in a.honest:
+                        continue
+                    e = ts.honest_errors(a, m)
+                    if e.size:
+                        xs.append((0 if angle else kinds.index(a.kind)) + 0.2 * (j - 1))
+                        ys.append(np.quantile(e, 0.999) * (1 if angle else 100))
+            ax.scatter(xs, ys, s=12, label=m, alpha=0.7)
+        ax.set_yscale("log")
+        if angle:
+            ax.set_xticks([0], ["angle"])
+            ax.set_ylabel("99.9 % honest error (degrees)")
+        else:
+            ax.set_xticks(range(len(kinds)), kinds, rotation=20)
+            ax.set_ylabel("99.9 % honest relative error (%)")
+        ax.grid(alpha=0.3)
+        ax.legend()
+    fig.suptitle("Honest-student errors per answer (3 s.f., 4 s.f., drawing)")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def plot_tradeoff(st: ts.Study, key: str, path: Path) -> None:
+    """False-reject and detection rates against the relative tolerance for one answer."""
+    a = st.answers[key]
+    rels = np.array(ts.REL_GRID)
+    fig, ax = plt.subplots(figsize=(6.5, 4))
+    for m in ts.MODELS:
+        fr = [ts.evaluate(a, Tolerance("relative", r, 0.0), (m,)).false_reject.get(m, np.nan) for r in rels]
+        ax.plot(100 * rels, np.maximum(fr, 1e-4), "o-", label=f"false reject ({m})")
+    for name in a.mistakes:
+        det = [ts.evaluate(a, Tolerance("relative", r, 0.0), ()).detection.get(name, np.nan) for r in rels]
+        ax.plot(100 * rels, det, "--", label=f"detect: {name}")
+    ax.axhline(ts.FALSE_REJECT_MAX, color="k", lw=0.6)
+    ax.axhline(ts.DETECT_MIN, color="k", lw=0.6)
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel("relative tolerance (%)")
+    ax.set_ylabel("rate")
+    ax.set_title(f"{st.problem.id} {key}: honest rejects vs mistakes caught")
+    ax.legend(fontsize=6, loc="lower left")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def mc_stability(st: ts.Study, key: str, path: Path, reps: int = 200) -> tuple[str, list[dict]]:
+    """Derived tolerance (99.9 % quantile of sf3 relative error) against the sample count (bootstrap)."""
+    pool = ts.honest_errors(st.answers[key], "sf3")
+    rng = np.random.default_rng(7)
+    rows = []
+    for n in (30, 100, 300, 1000, 3000, 10000):
+        qs = [np.quantile(rng.choice(pool, n), 0.999) for _ in range(reps)]
+        rows.append(
+            {
+                "samples": n,
+                "median": float(np.median(qs)),
+                "p5": float(np.quantile(qs, 0.05)),
+                "p95": float(np.quantile(qs, 0.95)),
+            }
+        )
+    fig, ax = plt.subplots(figsize=(6, 3.8))
+    ns = [r["samples"] for r in rows]
+    ax.fill_between(ns, [100 * r["p5"] for r in rows], [100 * r["p95"] for r in rows], alpha=0.3, label="5–95 %")
+    ax.plot(ns, [100 * r["median"] for r in rows], "o-", label="median")
+    ax.set_xscale("log")
+    ax.set_xlabel("Monte-Carlo honest samples")
+    ax.set_ylabel("derived tolerance: 99.9 % error (%)")
+    ax.set_title(f"{st.problem.id} {key} (sf3), bootstrap of {pool.size}")
+    ax.legend()
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    md = [f"Pool: {pool.size} honest 3-s.f. answers of {st.problem.id} `{key}`, {reps} bootstrap draws per size.", ""]
+    md += ["| samples | derived tolerance (median) | 5 % | 95 % | spread |", "|---|---|---|---|---|"]
+    md += [
+        f"| {r['samples']} | {_pct(r['median'])} | {_pct(r['p5'])} | {_pct(r['p95'])} | "
+        f"{_pct((r['p95'] - r['p5']) / r['median'])} |"
+        for r in rows
+    ]
+    return "\n".join(md), rows
+
+
+def crank_resolution(pid: str, path: Path) -> tuple[str, list[dict]]:
+    """Full-cycle input torque at crank-angle steps; error of its peak against a refined peak."""
+    problem = load_bank()[pid]
+    name = problem.inputs["theta"]
+    base = published_values(problem)
+
+    def torque(deg: float) -> float:
+        try:
+            r = solve_problem(problem, {**base, name: deg})
+        except GradekitError:
+            return math.nan
+        return abs(next(a.value for a in r.answers if a.of == "driver"))
+
+    fine = np.arange(0.0, 360.0, 0.05)
+    tf = np.array([torque(d) for d in fine])
+    i = int(np.nanargmax(tf))
+    lo, hi = fine[i] - 0.05, fine[i] + 0.05  # golden-section refinement of the peak
+    g = (math.sqrt(5) - 1) / 2
+    for _ in range(40):
+        a, b = hi - g * (hi - lo), lo + g * (hi - lo)
+        if torque(a) > torque(b):
+            hi = b
+        else:
+            lo = a
+    peak_angle = (lo + hi) / 2
+    peak = torque(peak_angle)
+    rows = []
+    for step in (30.0, 15.0, 10.0, 5.0, 2.0, 1.0, 0.5, 0.1):
+        grid = np.arange(0.0, 360.0, step)
+        t0 = time.perf_counter()
+        vals = np.array([torque(d) for d in grid])
+        dt = time.perf_counter() - t0
+        j = int(np.nanargmax(vals))
+        rows.append(
+            {
+                "step_deg": step,
+                "positions": grid.size,
+                "peak_error": (peak - vals[j]) / peak,
+                "angle_error_deg": abs(grid[j] - peak_angle),
+                "seconds": dt,
+            }
+        )
+    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(10, 3.8))
+    ax1.plot(fine, tf, lw=1)
+    ax1.axvline(peak_angle, color="r", lw=0.6)
+    ax1.set_xlabel("crank angle (deg)")
+    ax1.set_ylabel("|T| (problem unit)")
+    ax1.set_title(f"{pid}: input torque over a cycle")
+    ax2.loglog([r["step_deg"] for r in rows], [max(r["peak_error"], 1e-12) for r in rows], "o-")
+    ax2.set_xlabel("crank-angle step (deg)")
+    ax2.set_ylabel("relative error of the peak")
+    ax2.grid(alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    md = [f"Peak |T| = {peak:.6g} at φ = {peak_angle:.4f}° (0.05° scan refined by golden section).", ""]
+    md += ["| step | positions | peak error | angle error | time |", "|---|---|---|---|---|"]
+    md += [
+        f"| {r['step_deg']:g}° | {r['positions']} | {r['peak_error']:.2e} | {r['angle_error_deg']:.3f}° | "
+        f"{1e3 * r['seconds']:.0f} ms |"
+        for r in rows
+    ]
+    return "\n".join(md), rows
+
+
+def figure_timing(pid: str, runs: int) -> tuple[str, list[dict]]:
+    """Scene figure: SVG and PNG at several dpi, median seconds and bytes."""
+    try:
+        from gradekit.figures import scene, to_png, to_svg
+    except ImportError as exc:
+        return f"(skipped: gradekit.figures not available: {exc})", []
+    from gradekit.sampling import variant
+
+    res = variant(load_bank()[pid]).result
+    rows = []
+    for fmt, dpi in (("svg", None), ("png", 72), ("png", 110), ("png", 200), ("png", 300)):
+        times, size = [], 0
+        for _ in range(runs):
+            t = time.perf_counter()
+            fig = scene(res)
+            size = len(to_svg(fig) if fmt == "svg" else to_png(fig, dpi))
+            times.append(time.perf_counter() - t)
+        rows.append({"format": fmt, "dpi": dpi, "seconds": statistics.median(times), "bytes": size})
+    md = [f"Assignment scene of {pid}, median of {runs} (scene + serialise).", ""]
+    md += ["| format | dpi | time | size |", "|---|---|---|---|"]
+    md += [
+        f"| {r['format']} | {r['dpi'] or '—'} | {1e3 * r['seconds']:.0f} ms | {r['bytes'] / 1024:.0f} KiB |"
+        for r in rows
+    ]
+    return "\n".join(md), rows
+
+
+def run(quick: bool = False) -> dict:
+    """Every accuracy study; ``{"name", "markdown", "data", "plots"}``."""
+    PLOTS.mkdir(exist_ok=True)
+    nv, k = (8, 8) if quick else (40, 30)
+    bank = load_bank()
+    studies, skipped = [], []
+    t0 = time.perf_counter()
+    for pid, problem in sorted(bank.items()):
+        try:
+            studies.append(ts.simulate(problem, nv, k))
+        except GradekitError as exc:
+            skipped.append(f"{pid}: {exc}")
+    t_study = time.perf_counter() - t0
+    md, data = tolerance_tables(studies)
+    plots = {}
+    plots["honest"] = PLOTS / "honest_errors.png"
+    plot_honest(studies, plots["honest"])
+    by_id = {st.problem.id: st for st in studies}
+    md_parts = [
+        f"Tolerance study: {len(studies)} problems, {nv} variants × {k} honest students per model "
+        f"(problems without random parameters: {nv * k} students of the published variant), "
+        f"{t_study:.0f} s.",
+        "" if not skipped else "Skipped: " + "; ".join(skipped),
+        md,
+    ]
+    if "ch5-ex5-3" in by_id:
+        plots["tradeoff"] = PLOTS / "tradeoff_ch5-ex5-3_T.png"
+        plot_tradeoff(by_id["ch5-ex5-3"], "T", plots["tradeoff"])
+        plots["mc"] = PLOTS / "mc_stability.png"
+        mc_md, mc_rows = mc_stability(by_id["ch5-ex5-3"], "T", plots["mc"])
+        md_parts += ["#### Monte-Carlo sample count against the derived tolerance", "", mc_md]
+        data["mc"] = mc_rows
+    plots["crank"] = PLOTS / "crank_resolution.png"
+    cr_md, cr_rows = crank_resolution("ch5-ex5-1", plots["crank"])
+    md_parts += ["#### Crank-angle resolution of a full-cycle torque curve (Example 5.1)", "", cr_md]
+    data["crank"] = cr_rows
+    fig_md, fig_rows = figure_timing("ch5-ex5-3", 3 if quick else 7)
+    md_parts += ["#### Figure format and resolution against time", "", fig_md]
+    data["figures"] = fig_rows
+    return {"name": "accuracy", "markdown": "\n\n".join(md_parts), "data": data, "plots": plots, "studies": studies}
+
+
+if __name__ == "__main__":
+    sys.stdout.write(run("--quick" in sys.argv)["markdown"] + "\n")

@@ -1,0 +1,135 @@
+"""Run every benchmark and write benchmarks/RESULTS.md.
+
+``python benchmarks/run.py [--quick]``: the solver, accuracy and stability studies of this folder
+and the other engineers' ``bench_grade`` / ``bench_figures`` / ``bench_generate`` (each through
+its ``run(quick) -> dict``; a missing or failing one is skipped with a note). Speeds are medians
+over several runs, ratios are measured within one run.
+"""
+
+from __future__ import annotations
+
+import importlib
+import json
+import os
+import platform
+import subprocess
+import sys
+import time
+import traceback
+from pathlib import Path
+
+import numpy as np
+
+HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE))
+OTHERS = ("bench_grade", "bench_figures", "bench_generate")
+
+
+def _machine() -> str:
+    import matplotlib
+
+    return (
+        f"{platform.platform()}, {os.cpu_count()} CPUs (nproc {len(os.sched_getaffinity(0))}), "
+        f"Python {platform.python_version()}, numpy {np.__version__}, matplotlib {matplotlib.__version__}"
+    )
+
+
+def _scalar_table(d: dict) -> str:
+    rows = []
+
+    def walk(prefix: str, v) -> None:
+        if isinstance(v, dict):
+            for k, x in v.items():
+                walk(f"{prefix}.{k}" if prefix else str(k), x)
+        elif isinstance(v, (list, tuple)) and v and all(isinstance(x, dict) for x in v):
+            for i, x in enumerate(v):
+                walk(f"{prefix}[{i}]", x)
+        elif isinstance(v, (int, float, str, bool)) or v is None:
+            text = f"{v:.4g}" if isinstance(v, float) else str(v)
+            rows.append(f"| {prefix} | {text.replace('|', '/')} |")
+
+    walk("", d)
+    return "\n".join(["| field | value |", "|---|---|", *rows[:80]])
+
+
+def solver_md(res: dict) -> str:
+    lines = [
+        f"{res['positions']} random positions per kind (tests/mech_random.py), median of {res['runs']} runs. "
+        "Pipeline = build (closed-form positions on jets) + assemble + condition number + solve + virtual-work "
+        "check; ceiling = one batched `numpy.linalg.solve` of the same stacked systems.",
+        "",
+        "| kind | unknowns | pipeline positions/s | batched-solve ceiling/s | ceiling ÷ pipeline |",
+        "|---|---|---|---|---|",
+    ]
+    lines += [
+        f"| {r['kind']} | {r['unknowns']} | {r['per_second']:,.0f} | {r['ceiling_per_second']:,.0f} "
+        f"| ×{r['ratio']:,.0f} |"
+        for r in res["rows"]
+    ]
+    return "\n".join(lines)
+
+
+def _in_child(module: str, quick: bool, limit: float) -> dict:
+    """``module.run(quick)`` in a child process, killed after *limit* seconds."""
+    code = (
+        f"import json, sys; sys.path.insert(0, {str(HERE)!r}); import {module} as m; "
+        f"sys.stdout.write('\\n@@' + json.dumps(m.run({quick}), default=str))"
+    )
+    try:
+        out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=limit, check=False)
+    except subprocess.TimeoutExpired:
+        raise TimeoutError(f"did not finish within {limit:.0f} s (skipped)") from None
+    if out.returncode or "@@" not in out.stdout:
+        if "ModuleNotFoundError" in out.stderr and module in out.stderr:
+            raise ModuleNotFoundError(f"no module {module}")
+        raise RuntimeError(out.stderr.strip().splitlines()[-1] if out.stderr.strip() else "no result")
+    return json.loads(out.stdout.rsplit("@@", 1)[1])
+
+
+def main(argv: list[str]) -> int:
+    quick = "--quick" in argv
+    command = "python benchmarks/run.py" + (" --quick" if quick else "")
+    t_all = time.perf_counter()
+    sections: list[tuple[str, str]] = []
+
+    def attempt(title: str, module: str, render, limit: float | None = None) -> None:
+        t = time.perf_counter()
+        try:
+            res = _in_child(module, quick, limit) if limit else importlib.import_module(module).run(quick)
+        except ModuleNotFoundError as exc:
+            sections.append((title, f"(skipped: {exc})"))
+            return
+        except Exception as exc:  # noqa: BLE001 - one failing benchmark must not lose the others
+            sections.append(
+                (title, f"(failed: {type(exc).__name__}: {exc})\n\n```\n{traceback.format_exc()[-1500:]}```")
+            )
+            return
+        sections.append((title, render(res) + f"\n\n_{time.perf_counter() - t:.0f} s._"))
+        print(f"{module}: {time.perf_counter() - t:.1f} s", file=sys.stderr)
+
+    attempt("Solver throughput", "bench_solver", solver_md)
+    attempt(
+        "Accuracy and tolerances",
+        "accuracy",
+        lambda r: r["markdown"] + "\n\n" + "\n".join(f"![{k}](plots/{Path(p).name})" for k, p in r["plots"].items()),
+    )
+    attempt("Stability at the extremes", "stability", lambda r: r["markdown"])
+    for name in OTHERS:
+        attempt(f"{name} (other engineers)", name, _scalar_table, 45.0 if quick else 900.0)
+    body = [
+        "# Benchmark results",
+        "",
+        f"Produced by `{command}` in {time.perf_counter() - t_all:.0f} s on {time.strftime('%Y-%m-%d %H:%M')}.",
+        "",
+        f"Machine: {_machine()}.",
+        "",
+    ]
+    for title, text in sections:
+        body += [f"## {title}", "", text, ""]
+    (HERE / "RESULTS.md").write_text("\n".join(body), encoding="utf-8")
+    print(f"wrote {HERE / 'RESULTS.md'} in {time.perf_counter() - t_all:.0f} s", file=sys.stderr)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main(sys.argv[1:]))
