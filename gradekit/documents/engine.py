@@ -231,8 +231,7 @@ def _font_warnings(s: Student) -> list[str]:
         return []
     msg = (f"student {s.student_id}: no installed font draws {missing!r} of the name {s.display!r}; "
            f"it prints as empty boxes (install {typeset.font_hint(missing)})")
-    log.warning(msg)
-    return [msg]
+    return [msg]  # reported once, by the caller, from GenerateSummary.warnings
 
 
 _SVG_WIDTH = re.compile(rb'<svg[^>]*?\swidth="([0-9.]+)(pt|px)?"')
