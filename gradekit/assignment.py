@@ -118,6 +118,7 @@ def load_assignment(path: Path | str, bank: Path | str | None = None) -> Assignm
         tuple(items),
         str(path),
         hashlib.sha256(path.read_bytes()).hexdigest(),
+        redraws,
     )
 
 
@@ -260,13 +261,21 @@ def check_manifest(asg: Assignment, path: Path) -> list[str]:
     return notes
 
 
-def seeds_of(asg: Assignment, student_id: str, variants: dict[str, Variant] | None = None) -> dict[str, dict]:
+def seeds_of(asg: Assignment, student_id: str, redraws: dict[str, int] | None = None) -> dict[str, dict]:
     """Per item: the seed and re-draw counter of a student's variant (for the manifest)."""
     out = {}
     for it in asg.items:
-        redraw = variants[it.label].redraw if variants else 0
-        out[it.label] = {"seed": derive_seed(asg.course, asg.salt, student_id, it.problem.id, redraw), "redraw": redraw}
+        redraw = (redraws or {}).get(it.label, 0)
+        out[it.label] = {"seed": derive_seed(asg.course, asg.salt, student_id, it.problem.id, redraw),
+                         "redraw": redraw}
     return out
+
+
+def class_redraws(asg: Assignment, student_ids: list[str]) -> dict[str, dict[str, int]]:
+    """Each student's re-draw counter per item: the assignment's explicit re-draws plus the class
+    de-duplication (no two students share a variant). Generation and grading both use this."""
+    _, variants = class_keys(asg, student_ids, with_mistakes=False, need_keys=False)
+    return {s: {label: v.redraw for label, v in per.items()} for s, per in variants.items()}
 
 
 def class_keys(
@@ -274,6 +283,7 @@ def class_keys(
     student_ids: list[str],
     redraws: dict[str, dict[str, int]] | None = None,
     with_mistakes: bool = True,
+    need_keys: bool = True,
 ) -> tuple[list[KeyEntry], dict[str, dict[str, Variant]]]:
     """Every student's variants and key entries, no two students alike within an item.
 
@@ -298,6 +308,8 @@ def class_keys(
             raise ProblemError(exc.format_message(), path=asg.path, field=f"problems.{item.label}") from None
         for s, v in per.items():
             variants[s][item.label] = v
+    if not need_keys:
+        return [], variants
     keys = [
         k
         for s in student_ids

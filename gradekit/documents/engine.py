@@ -13,7 +13,15 @@ from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from gradekit.assignment import Assignment, keys_for, load_assignment, manifest, seeds_of, student_variant
+from gradekit.assignment import (
+    Assignment,
+    class_redraws,
+    keys_for,
+    load_assignment,
+    manifest,
+    seeds_of,
+    student_variant,
+)
 from gradekit.csvsafe import atomic_write, write_csv
 from gradekit.documents import typeset
 from gradekit.documents.context import Picture, Solved, build_context
@@ -46,6 +54,7 @@ class _Job:
     assignment: str
     out: str
     keys: bool
+    redraws: dict = field(default_factory=dict)  # {student: {label: re-draw counter}}
 
 
 @dataclass
@@ -90,7 +99,9 @@ def generate(assignment: Path, roster: Path, out: Path, *, jobs: int = 1, studen
     chosen = [by_id[student]] if student is not None else students
     for sub in ("students", "keys", BUILD) if keys else ("students", BUILD):
         (out / sub).mkdir(parents=True, exist_ok=True)
-    job = _Job(str(Path(assignment)), str(out), keys)
+    # The same variants grading recomputes: explicit re-draws plus the class de-duplication.
+    redraws = class_redraws(asg, [s.student_id for s in students])
+    job = _Job(str(Path(assignment)), str(out), keys, redraws)
     summary = GenerateSummary(out, len(chosen))
     done: dict[str, _Done] = {}
     work = [(s, names[s.student_id]) for s in chosen]
@@ -116,9 +127,9 @@ def generate(assignment: Path, roster: Path, out: Path, *, jobs: int = 1, studen
         rows = []
         for s in students:  # key.csv always covers the whole class, in roster order
             d = done.get(s.student_id)
-            rows += d.key_rows if d else _key_rows(asg, s)
+            rows += d.key_rows if d else _key_rows(asg, s, redraws[s.student_id])
         write_csv(out / "key.csv", KEY_HEADER, rows)
-        seeds = {s.student_id: seeds_of(asg, s.student_id) for s in students}
+        seeds = {s.student_id: seeds_of(asg, s.student_id, redraws[s.student_id]) for s in students}
         data = manifest(asg, [s.student_id for s in students], seeds)
         atomic_write(out / "manifest.json", json.dumps(data, indent=2, ensure_ascii=False) + "\n")
     finally:
@@ -182,7 +193,7 @@ def _one(s: Student, safe: str) -> _Done:
     build.mkdir(parents=True, exist_ok=True)
     solved = []
     for item in asg.items:
-        v = student_variant(asg, item, s.student_id)
+        v = student_variant(asg, item, s.student_id, job.redraws[s.student_id][item.label])
         scenes, pics = _pictures(v.result, item.label, build, safe, job.keys, warnings, s)
         solved.append(Solved(item, v, tuple(scenes), tuple(pics)))
     folder = out / "students" / safe
@@ -217,10 +228,10 @@ def _key_row(e) -> list:
             e.description, e.sign_convention]
 
 
-def _key_rows(asg: Assignment, s: Student) -> list[list]:
+def _key_rows(asg: Assignment, s: Student, redraws: dict[str, int]) -> list[list]:
     rows = []
     for item in asg.items:
-        v = student_variant(asg, item, s.student_id)
+        v = student_variant(asg, item, s.student_id, redraws[item.label])
         rows += [_key_row(e) for e in keys_for(asg, item, s.student_id, v, with_mistakes=False)]
     return rows
 

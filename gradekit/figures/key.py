@@ -76,7 +76,7 @@ def fbd(result: Result, cr: CaseResult, body: str, member: Member) -> Canvas:
 
     cv = Canvas()
     P = draw_linkage(cv, link, T, bodies={body}, ground=False)
-    keep = {n for n, p in link.points.items() if _on_body(link, body, n)}
+    keep = [n for n in link.points if _on_body(link, body, n)]  # ordered: labels placed deterministically
     mid = np.mean([T(p) for p in pts], axis=0)
     biggest = max((float(np.hypot(*f.vector)) for f in member.forces), default=0.0)
     st = cr.solution.states.get(body)
