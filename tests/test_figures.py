@@ -113,7 +113,9 @@ def _overlaps(fig) -> list[tuple[str, str]]:
 
     canvas = FigureCanvasAgg(fig)
     renderer = canvas.get_renderer()
-    texts = [t for t in fig.axes[0].texts if t.get_text()]
+    from matplotlib.text import Text
+
+    texts = [t for t in fig.artists if isinstance(t, Text) and t.get_text()]
     boxes = [t.get_window_extent(renderer) for t in texts]
     bad = []
     for i in range(len(boxes)):
@@ -129,7 +131,7 @@ def test_labels_do_not_overlap(pid):
     r = result(pid, "s4")
     assert _overlaps(figures.scene(r)) == []
     for _slug, _cap, fig in figures.key_figures(r)[:4]:
-        if len(fig.axes) == 1 and fig.axes[0].axison is False:
+        if not fig.axes:  # canvas figures (the torque curve is a plot with axes)
             assert _overlaps(fig) == []
 
 
