@@ -115,7 +115,7 @@ def main(argv: list[str]) -> int:
     )
     attempt("Stability at the extremes", "stability", lambda r: r["markdown"])
     for name in OTHERS:
-        attempt(f"{name} (other engineers)", name, _scalar_table, 45.0 if quick else 900.0)
+        attempt(f"{name} (other engineers)", name, _scalar_table, 45.0 if quick else 300.0)
     body = [
         "# Benchmark results",
         "",
