@@ -11,7 +11,7 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import json
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 from gradekit import __version__
@@ -140,7 +140,8 @@ def keys_for(asg: Assignment, item: Item, student_id: str, v: Variant, with_mist
     out = []
     for a in answers:
         base = a.key.split("_")[0] if a.case else a.key
-        tol = item.tolerances.get(base) or item.tolerance or a.tolerance
+        override = item.tolerances.get(base) or item.tolerance
+        tol = replace(override, period=a.tolerance.period).resolve(a.scale) if override else a.tolerance
         out.append(
             KeyEntry(
                 student_id,
@@ -152,7 +153,7 @@ def keys_for(asg: Assignment, item: Item, student_id: str, v: Variant, with_mist
                 round(item.points * a.points / weight, 6),
                 a.description,
                 a.sign,
-                tuple(mistakes.get(a.key, ())),
+                tuple(m for m in mistakes.get(a.key, ()) if not tol.accepts(m.value, a.value)),
             )
         )
     return out

@@ -7,7 +7,7 @@ grader (which compares submissions with them).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 
 @dataclass(frozen=True)
@@ -19,6 +19,10 @@ class Tolerance:
         ``sigfigs``: accept x when it equals v rounded to *sigfigs* significant figures,
             i.e. |x - v| <= 0.5 * 10**(floor(log10|v|) - sigfigs + 1), widened by ``rel``/``abs``
             if those are larger.
+    ``floor`` is the absolute floor as a fraction of the variant's scale (the largest answer of
+    the same dimension); `resolve` turns it into ``abs`` for one variant, so small components of
+    large forces are judged against the error a student makes on the whole problem.
+    ``period`` (360 for direction angles in degrees) wraps the difference: 359.9° is 0.2° from 0.1°.
     NaN and infinities are never accepted.
     """
 
@@ -26,6 +30,21 @@ class Tolerance:
     rel: float = 0.01
     abs: float = 0.0
     sigfigs: int = 3
+    floor: float = 0.0
+    period: float = 0.0
+
+    def resolve(self, scale: float) -> Tolerance:
+        """This tolerance with its floor made absolute for a variant whose scale is *scale*."""
+        if not self.floor or not math.isfinite(scale):
+            return self
+        return replace(self, abs=max(self.abs, self.floor * abs(scale)))
+
+    def difference(self, answer: float, value: float) -> float:
+        """answer - value, wrapped into [-period/2, period/2) when the tolerance has a period."""
+        d = answer - value
+        if self.period:
+            d = (d + self.period / 2) % self.period - self.period / 2
+        return d
 
     def band(self, value: float) -> float:
         """Half-width of the acceptance band around the key *value*."""
@@ -39,15 +58,17 @@ class Tolerance:
         """True when *answer* is within the band around *value*."""
         if not (math.isfinite(answer) and math.isfinite(value)):
             return False
-        return abs(answer - value) <= self.band(value) * (1 + 1e-12)
+        return abs(self.difference(answer, value)) <= self.band(value) * (1 + 1e-12)
 
     def describe(self) -> str:
         """Human text, e.g. ``±1 % (at least 0.05)`` or ``3 significant figures``."""
         if self.mode == "sigfigs":
             return f"{self.sigfigs} significant figures"
+        if self.period and not self.rel:
+            return f"±{self.abs:.3g}°" if self.period == 360 else f"±{self.abs:.3g}"
         text = f"±{self.rel * 100:g} %"
         if self.abs:
-            text += f" (at least ±{self.abs:g})"
+            text += f" (at least ±{self.abs:.2g})"
         return text
 
 

@@ -197,6 +197,7 @@ class Answer:
     tolerance: object
     of: str
     case: str | None
+    scale: float = 0.0  # the variant's largest answer of the same dimension (for tolerance floors)
 
 
 @dataclass
@@ -324,6 +325,14 @@ def solve_problem(problem: Problem, values: dict[str, float]) -> Result:
                     key, value, spec.unit, spec.description, spec.sign, spec.points, spec.tolerance, spec.of, case.name
                 )
             )
+    # Floors are fractions of the variant's scale: its largest answer of the same dimension.
+    scale: dict[str, float] = {}
+    for a in answers:
+        dim = units.si_unit(a.unit)
+        scale[dim] = max(scale.get(dim, 0.0), abs(a.value))
+    for a in answers:
+        a.scale = scale[units.si_unit(a.unit)]
+        a.tolerance = a.tolerance.resolve(a.scale)
     return Result(problem, full, cases, answers)
 
 

@@ -38,6 +38,7 @@ from gradekit.keys import KeyEntry, Tolerance
 from gradekit.mechanics.jet import Jet, P
 from gradekit.mechanics.model import Linkage
 from gradekit.sampling import Variant, variant
+from gradekit.tolerances import answer_kind
 
 MODELS = ("sf3", "sf4", "graphical")
 FALSE_REJECT_MAX = 0.001
@@ -48,20 +49,6 @@ READ_DEG = 0.5
 REL_GRID = (0.001, 0.002, 0.003, 0.005, 0.0075, 0.01, 0.015, 0.02, 0.025, 0.03, 0.04, 0.05, 0.075, 0.1, 0.15, 0.2)
 FLOOR_GRID = (0.0, 0.001, 0.003, 0.01, 0.03, 0.1)  # absolute floor as a fraction of the answer scale
 DEG_GRID = (0.05, 0.1, 0.2, 0.3, 0.5, 0.75, 1.0, 1.5, 2.0, 3.0, 5.0)  # absolute, for angles
-
-
-def answer_kind(of: str, unit: str) -> str:
-    """The kind of an answer: angle, torque, force, force-component, kinematic or length."""
-    si = units.si_unit(unit)
-    if si == units.si_unit("deg"):
-        return "angle"
-    if si == units.si_unit("N*m"):
-        return "torque"
-    if si == units.si_unit("N"):
-        return "force-component" if of.endswith((".x", ".y")) or of.startswith("M[") else "force"
-    if si == units.si_unit("m"):
-        return "length"
-    return "kinematic"
 
 
 # --- perturbation models ---------------------------------------------------------------------
@@ -391,7 +378,8 @@ def candidates(a: AnswerData) -> Iterator[tuple[Tolerance, float]]:
 
 
 def basis(method: str) -> tuple[str, ...]:
-    """The honest models a tolerance must accept: 3-s.f. work, and drawings for graphical problems."""
+    """The honest models a tolerance must accept (issue 7): intermediate values rounded to three
+    and to four significant figures, and for graphical problems the drawing at the printed scale."""
     return ("sf3", "sf4", "graphical") if method == "graphical" else ("sf3", "sf4")
 
 

@@ -27,6 +27,8 @@ def load_bank(path: Path | str | None = None) -> dict[str, Problem]:
     problems: dict[str, Problem] = {}
     errors: list[GradekitError] = []
     for f in sorted(folder.glob("*.yaml")):
+        if f.name.startswith("_"):  # generated data (e.g. _tolerances.yaml), not a problem
+            continue
         try:
             p = load_problem(f)
         except ErrorList as exc:

@@ -9,11 +9,11 @@ from __future__ import annotations
 
 import math
 import re
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
-from gradekit import units
+from gradekit import tolerances, units
 from gradekit.bank import expr
 from gradekit.bank.yamlfile import LineDict, LineList
 from gradekit.errors import ErrorList, GradekitError, ProblemError
@@ -102,6 +102,7 @@ class AnswerSpec:
     points: float = 1.0
     tolerance: Tolerance = Tolerance()
     case: str | None = None
+    tolerance_explicit: bool = False  # given in the file (else: the measured or per-kind default)
 
 
 @dataclass(frozen=True)
@@ -424,7 +425,7 @@ def order(params: dict[str, Parameter]) -> list[str]:
 def _tolerance(c: _Collector, node: Any, where: str, default: Tolerance, parent: dict) -> Tolerance:
     if node is None:
         return default
-    m = c.mapping(node, where, (), ("mode", "rel", "abs", "sigfigs"), parent, "tolerance")
+    m = c.mapping(node, where, (), ("mode", "rel", "abs", "sigfigs", "floor"), parent, "tolerance")
     if m is None:
         return default
     mode = c.choice(m, "mode", f"{where}.mode", ("relative", "sigfigs"), default.mode)
@@ -438,7 +439,10 @@ def _tolerance(c: _Collector, node: Any, where: str, default: Tolerance, parent:
         c.err(m, "rel", f"{where}.rel", f"expected a fraction from 0 to 1 (0.01 = 1 %), got {rel}")
     if ab is not None and ab < 0:
         c.err(m, "abs", f"{where}.abs", f"expected a number of at least 0, got {ab}")
-    return Tolerance(mode, rel or 0.0, ab or 0.0, sig)
+    fl = c.number(m, "floor", f"{where}.floor", default.floor)
+    if fl is not None and not 0 <= fl < 1:
+        c.err(m, "floor", f"{where}.floor", f"expected a fraction of the answer scale from 0 to 1, got {fl}")
+    return Tolerance(mode, rel or 0.0, ab or 0.0, sig, fl or 0.0, default.period)
 
 
 DEFAULT_TOLERANCE = {"analytical": Tolerance("relative", 0.01, 0.0), "graphical": Tolerance("relative", 0.03, 0.0)}
@@ -799,7 +803,11 @@ def _answers(c: _Collector, data: dict, method: str, cases: dict) -> tuple[Answe
         pts = c.number(m, "points", f"{w}.points", 1.0)
         if pts is not None and pts < 0:
             c.err(m, "points", f"{w}.points", f"expected a number of at least 0, got {pts}")
-        tol = _tolerance(c, m.get("tolerance"), f"{w}.tolerance", DEFAULT_TOLERANCE[method], m)
+        try:
+            base = tolerances.default(method, str(of), unit) if unit else DEFAULT_TOLERANCE[method]
+        except GradekitError:
+            base = DEFAULT_TOLERANCE[method]
+        tol = _tolerance(c, m.get("tolerance"), f"{w}.tolerance", base, m)
         out.append(
             AnswerSpec(
                 key,
@@ -810,6 +818,7 @@ def _answers(c: _Collector, data: dict, method: str, cases: dict) -> tuple[Answe
                 pts or 0.0,
                 tol,
                 None if case is None else str(case),
+                "tolerance" in m,
             )
         )
     return tuple(out)
@@ -849,7 +858,48 @@ def _figure(c: _Collector, data: dict) -> Figure:
 
 
 def load_problem(path: Path | str) -> Problem:
-    """Load and validate one problem file."""
+    """Load and validate one problem file, with the measured tolerance defaults of its folder."""
     from gradekit.bank.yamlfile import load
 
-    return validate(load(path), str(path))
+    problem = validate(load(path), str(path))
+    return apply_measured(problem, measured_tolerances(Path(path).resolve().parent))
+
+
+MEASURED = "_tolerances.yaml"
+_MEASURED_CACHE: dict[Path, dict] = {}
+
+
+def measured_tolerances(folder: Path) -> dict:
+    """``{problem id: {answer key: row}}`` from the folder's ``_tolerances.yaml`` (written by
+    benchmarks/derive_tolerances.py), or {} when there is none."""
+    f = folder / MEASURED
+    if f not in _MEASURED_CACHE:
+        import yaml
+
+        try:
+            data = yaml.safe_load(f.read_text(encoding="utf-8")) if f.is_file() else {}
+        except (OSError, yaml.YAMLError) as exc:
+            raise ProblemError(f"expected the generated tolerance table, got {exc}", path=str(f)) from None
+        _MEASURED_CACHE[f] = data if isinstance(data, dict) else {}
+    return _MEASURED_CACHE[f]
+
+
+def apply_measured(problem: Problem, table: dict) -> Problem:
+    """Give every answer without an explicit ``tolerance:`` its measured default."""
+    rows = table.get(problem.id) or {}
+    if not rows:
+        return problem
+    answers = []
+    for a in problem.answers:
+        row = rows.get(a.key)
+        if a.tolerance_explicit or not isinstance(row, dict):
+            answers.append(a)
+            continue
+        if "deg" in row:
+            tol = Tolerance("relative", 0.0, float(row["deg"]), a.tolerance.sigfigs, 0.0, a.tolerance.period or 360.0)
+        else:
+            tol = Tolerance(
+                "relative", float(row["rel"]), 0.0, a.tolerance.sigfigs, float(row["floor"]), a.tolerance.period
+            )
+        answers.append(replace(a, tolerance=tol))
+    return replace(problem, answers=tuple(answers))
