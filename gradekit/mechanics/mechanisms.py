@@ -13,6 +13,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
+from functools import partial
 
 import numpy as np
 
@@ -271,6 +272,10 @@ def fourbar_quick_return(p: dict, m: Motion, branch: int = 1, fmt: Fmt = _mm) ->
     )
 
 
+def _quick_return_kind(p: dict, m: Motion, branch: int = 1, fmt: Fmt = _mm, *, kind: str) -> Linkage:
+    return quick_return(p, m, branch, fmt, kind)
+
+
 @dataclass(frozen=True)
 class Kind:
     """A mechanism type: its builder, required and optional parameters (SI), and its bodies."""
@@ -308,20 +313,16 @@ KINDS: dict[str, Kind] = {
         ("crank", "block", "lever"),
         ("O2", "A", "O4", "C"),
     ),
-    "whitworth": Kind(
-        lambda p, m, branch=1, fmt=_mm: quick_return(p, m, branch, fmt, "whitworth"),
-        ("crank", "frame", "lever", "link", "ram_offset"),
-        {**_POS, "frame_angle": -math.pi / 2, "slide_angle": 0.0},
-        ("crank", "block", "lever", "link", "ram"),
-        ("O2", "A", "O4", "C", "D"),
-    ),
-    "crank_shaper": Kind(
-        lambda p, m, branch=1, fmt=_mm: quick_return(p, m, branch, fmt, "crank_shaper"),
-        ("crank", "frame", "lever", "link", "ram_offset"),
-        {**_POS, "frame_angle": -math.pi / 2, "slide_angle": 0.0},
-        ("crank", "block", "lever", "link", "ram"),
-        ("O2", "A", "O4", "C", "D"),
-    ),
+    **{
+        name: Kind(
+            partial(_quick_return_kind, kind=name),
+            ("crank", "frame", "lever", "link", "ram_offset"),
+            {**_POS, "frame_angle": -math.pi / 2, "slide_angle": 0.0},
+            ("crank", "block", "lever", "link", "ram"),
+            ("O2", "A", "O4", "C", "D"),
+        )
+        for name in ("whitworth", "crank_shaper")
+    },
     "fourbar_quick_return": Kind(
         fourbar_quick_return,
         ("crank", "coupler", "rocker", "frame", "arm", "link", "ram_offset"),
