@@ -321,7 +321,9 @@ def _specs(result: Result) -> list[tuple[str, str, object]]:
             out.append((f"fbd-{lab}{tag}", cap,
                         lambda cr=cr, body=body, member=member: _fbd_figure(result, cr, body, member)))
         groups = cr.solution.groups
-        if len(groups) > 1:
+        # Sub-problem figures only where the problem asks for superposition parts (driver@F2, …):
+        # a figure carries only what its problem needs.
+        if len(groups) > 1 and any("@" in a.of for a in pr.answers):
             for gname, g in groups.items():
                 if any(len(m.forces) >= 2 and m.kind != "two-force" for m in g.members.values()):
                     panels = _maker(result, cr, g)
