@@ -86,6 +86,22 @@ def _in_child(module: str, quick: bool, limit: float) -> dict:
     return json.loads(out.stdout.rsplit("@@", 1)[1])
 
 
+def _generate_md(res: dict) -> str:
+    """Students per minute of `gradekit generate` (examples/hw5.yaml), one row per configuration."""
+    rows = ["| class | jobs | worked keys | seconds | students/min | target | met |", "|---|---|---|---|---|---|---|"]
+    for r in res.get("results", []):
+        rows.append(
+            f"| {r['students']} | {r['jobs']} | {'yes' if r['keys'] else 'no'} | {r['seconds']} | "
+            f"{r['per_minute']} | {r['target']:g} | {'yes' if r['meets'] else 'NO'} |"
+        )
+    note = (
+        "One run per configuration (a class of 300 with keys takes minutes). The issue's targets are "
+        "for a class of 300 on this 2-core machine, i.e. with 2 jobs; classes of 30 pay the worker "
+        "start-up (~2 s) and are shown for the trend."
+    )
+    return "\n".join(rows) + "\n\n" + note
+
+
 def main(argv: list[str]) -> int:
     quick = "--quick" in argv
     command = "python benchmarks/run.py" + (" --quick" if quick else "")
@@ -114,12 +130,16 @@ def main(argv: list[str]) -> int:
         lambda r: r["markdown"] + "\n\n" + "\n".join(f"![{k}](plots/{Path(p).name})" for k, p in r["plots"].items()),
     )
     attempt("Stability at the extremes", "stability", lambda r: r["markdown"])
-    titles = {"bench_grade": "Grading throughput", "bench_figures": "Figure time",
-              "bench_generate": "Generate: students per minute"}
+    titles = {
+        "bench_grade": "Grading throughput",
+        "bench_figures": "Figure time",
+        "bench_generate": "Generate: students per minute",
+    }
+    renderers = {"bench_generate": _generate_md}
     for name in OTHERS:
         # generate at a class of 300 with keys takes minutes on 2 cores: give it room
         limit = (90.0 if quick else 1500.0) if name == "bench_generate" else (45.0 if quick else 300.0)
-        attempt(f"{titles.get(name, name)} (`benchmarks/{name}.py`)", name, _scalar_table, limit)
+        attempt(f"{titles.get(name, name)} (`benchmarks/{name}.py`)", name, renderers.get(name, _scalar_table), limit)
     body = [
         "# Benchmark results",
         "",
