@@ -6,8 +6,9 @@ from pathlib import Path
 
 from gradekit.bank.schema import Problem, load_problem
 from gradekit.errors import ErrorList, GradekitError, ProblemError
+from gradekit.resources import resource_dir
 
-DEFAULT_BANK = Path(__file__).resolve().parents[2] / "problem_bank"
+DEFAULT_BANK = resource_dir("problem_bank")
 
 
 def bank_dir(path: Path | str | None = None) -> Path:

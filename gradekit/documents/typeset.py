@@ -13,10 +13,11 @@ import jinja2
 from gradekit import units
 from gradekit.errors import GradekitError
 from gradekit.report import fmt
+from gradekit.resources import resource_dir
 
 log = logging.getLogger("gradekit")
 
-TEMPLATES = Path(__file__).resolve().parents[2] / "templates"
+TEMPLATES = resource_dir("templates")
 
 # Body text first; then fonts for the scripts of names on a roster, used by Typst's fallback
 # when installed (Debian: fonts-noto-core for Ethiopic, fonts-noto-cjk for CJK).
