@@ -98,3 +98,19 @@ def test_expressions_are_never_evaluated_as_python(tmp_path):
 def test_usage_error_is_exit_2():
     r = run("solve", EX51, "--student", "a", "--seed", "3")
     assert r.exit_code == 2
+
+
+def test_load_points_use_the_printed_names(tmp_path):
+    # Example 5.1 prints O2, A, B as O, B, C: a load at C is on the piston pin, O2 is refused
+    f = _bad(tmp_path, "{name: P, body: slider, magnitude: P, angle: 180}",
+             "{name: P, body: slider, at: C, magnitude: P, angle: 180}")
+    r = run("solve", f)
+    assert r.exit_code == 0 and "T        = -1.1184 N·m" in r.output
+    f = _bad(tmp_path, "{name: P, body: slider, magnitude: P, angle: 180}",
+             "{name: P, body: slider, at: O2, magnitude: P, angle: 180}", "b2.yaml")
+    r = run("solve", f)
+    assert r.exit_code == 1
+    assert (
+        "loads[0].at: expected a point as printed in this problem (B, C, O); got 'O2', which is printed as 'O'"
+        in r.output
+    )

@@ -536,8 +536,9 @@ def validate(data: dict, path: str) -> Problem:
 
     body_names = set(spec.bodies) if spec else set()
     point_set = set(spec.points) if spec else set()
-    loads = _loads(c, data, names, body_names, point_set)
-    mass = _mass(c, data, names, body_names, point_set)
+    shown = {name: point_names.get(name, name) for name in point_set}  # internal -> printed name
+    loads = _loads(c, data, names, body_names, shown)
+    mass = _mass(c, data, names, body_names, shown)
     gravity = None
     if "gravity" in data:
         gm = c.mapping(data["gravity"], "gravity", ("g",), ("angle",), data, "gravity") or {}
@@ -624,9 +625,7 @@ def _loads(c: _Collector, data: dict, names: set[str], bodies: set[str], points:
         body = m.get("body")
         if body not in bodies:
             c.err(m, "body", f"{w}.body", f"expected one of {', '.join(sorted(bodies))}; got {_show(body)}")
-        at = m.get("at", "")
-        if at and at not in points:
-            c.err(m, "at", f"{w}.at", f"expected a point among {', '.join(sorted(points))}; got {_show(at)}")
+        at = _point(c, m, f"{w}.at", points)
         vals = {
             k: _value(c, m, k, f"{w}.{k}", names)
             for k in ("along", "across", "magnitude", "angle", "fx", "fy", "torque")
@@ -661,6 +660,31 @@ def _loads(c: _Collector, data: dict, names: set[str], bodies: set[str], points:
     return tuple(out)
 
 
+def _point(c: _Collector, m: dict, where: str, shown: dict[str, str]) -> str:
+    """A point named as the sheet prints it (``mechanism.points``), as the solver's internal name.
+
+    A point renamed for display is only known by its printed name, so ``at: A`` always means the
+    point labelled A on the student's figure.
+    """
+    at = m.get("at", "")
+    if not at:
+        return ""
+    internal = {printed: name for name, printed in shown.items()}
+    if at in internal:
+        return internal[at]
+    printed = ", ".join(sorted(internal))
+    if at in shown:
+        c.err(
+            m,
+            "at",
+            where,
+            f"expected a point as printed in this problem ({printed}); got {at!r}, which is printed as {shown[at]!r}",
+        )
+    else:
+        c.err(m, "at", where, f"expected a point among {printed}; got {_show(at)}")
+    return ""
+
+
 def _mass(c: _Collector, data: dict, names: set[str], bodies: set[str], points: set[str]) -> tuple[MassSpec, ...]:
     node = data.get("mass", {})
     m0 = c.mapping(node, "mass", (), tuple(sorted(bodies)), data, "mass")
@@ -673,9 +697,7 @@ def _mass(c: _Collector, data: dict, names: set[str], bodies: set[str], points: 
         vals = {k: _value(c, m, k, f"{w}.{k}", names) for k in ("mass", "weight", "inertia", "along", "across")}
         if (vals["mass"] is None) == (vals["weight"] is None):
             c.err(m, None, w, "expected exactly one of mass or weight")
-        at = m.get("at", "")
-        if at and at not in points:
-            c.err(m, "at", f"{w}.at", f"expected a point among {', '.join(sorted(points))}; got {_show(at)}")
+        at = _point(c, m, f"{w}.at", points)
         out.append(
             MassSpec(
                 body,
