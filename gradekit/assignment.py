@@ -19,7 +19,8 @@ from gradekit.bank.registry import load_bank
 from gradekit.bank.schema import DEFAULT_TOLERANCE, Problem, _Collector, _tolerance
 from gradekit.bank.yamlfile import load
 from gradekit.errors import ErrorList, GradekitError, ProblemError
-from gradekit.keys import KeyEntry, Mistake, Tolerance
+from gradekit.keys import KeyEntry, Tolerance
+from gradekit.mistakes import catalogued_mistakes
 from gradekit.sampling import Variant, derive_seed, variant
 
 
@@ -154,67 +155,6 @@ def keys_for(asg: Assignment, item: Item, student_id: str, v: Variant, with_mist
                 a.description,
                 a.sign,
                 tuple(m for m in mistakes.get(a.key, ()) if not tol.accepts(m.value, a.value)),
-            )
-        )
-    return out
-
-
-def catalogued_mistakes(v: Variant) -> dict[str, list[Mistake]]:
-    """Re-solve the variant with each catalogued mistake; map answer key -> mistakes that change it.
-
-    Mistakes that need a re-solve: the inertia torque left out, gravity left out, a static answer
-    to a dynamic problem, x and y swapped, magnitude given for a component. (Sign flips and unit
-    slips need no re-solve; the grader adds them.)
-    """
-    from gradekit.pipeline import solve_problem
-
-    p = v.problem
-    out: dict[str, list[Mistake]] = {}
-    variants: list[tuple[str, str, Problem]] = []
-    if p.analysis == "dynamic":
-        variants.append(
-            (
-                "static-answer",
-                "a static answer to a dynamic problem (inertia left out)",
-                dataclasses.replace(p, analysis="static"),
-            )
-        )
-        if any(m.inertia not in (0, 0.0) for m in p.mass):
-            no_i = tuple(dataclasses.replace(m, inertia=0.0) for m in p.mass)
-            variants.append(("no-inertia-torque", "the inertia torque I·α left out", dataclasses.replace(p, mass=no_i)))
-    if p.gravity is not None:
-        variants.append(("no-gravity", "gravity (the weights) left out", dataclasses.replace(p, gravity=None)))
-    for name, text, mp in variants:
-        try:
-            res = solve_problem(mp, v.values)
-        except GradekitError:
-            continue
-        for a, b in zip(v.result.answers, res.answers, strict=True):
-            if abs(b.value - a.value) > 1e-6 * max(abs(a.value), 1e-12):
-                out.setdefault(a.key, []).append(Mistake(name, text, float(b.value)))
-    for a in v.result.answers:
-        comp = _swap_and_component(v, a)
-        out.setdefault(a.key, []).extend(m for m in comp if abs(m.value - a.value) > 1e-9 * max(abs(a.value), 1))
-    return out
-
-
-def _swap_and_component(v: Variant, a) -> list[Mistake]:
-    """x/y swapped and magnitude-for-component, read off the same solution's flat results."""
-    if not a.of.endswith((".x", ".y")):
-        return []
-    case = next(c for c in v.result.cases if c.name == a.case)
-    stem, comp = a.of.rsplit(".", 1)
-    other = case.results.get(f"{stem}.{'y' if comp == 'x' else 'x'}")
-    mag = case.results.get(f"{stem}.mag")
-    from gradekit import units
-
-    out = []
-    if other:
-        out.append(Mistake("x-y-swapped", "the x and y components swapped", units.convert(other[0], other[1], a.unit)))
-    if mag:
-        out.append(
-            Mistake(
-                "magnitude-for-component", "the magnitude given for a component", units.convert(mag[0], mag[1], a.unit)
             )
         )
     return out

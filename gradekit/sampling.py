@@ -93,6 +93,22 @@ def check(problem: Problem, values: dict[str, float]) -> tuple[str | None, Resul
             ang = math.degrees(abs(math.atan2(crank[0] * rod[1] - crank[1] * rod[0], crank @ rod)))
             if min(ang, 180 - ang) < c.dead_centre_min:
                 return "dead_centre_min", result
+    if c.gradable:
+        for a in result.answers:
+            if a.unit != "deg" and abs(a.value) < c.gradable * a.tolerance.band(a.value):
+                return "gradable", result
+    if c.distinguish:
+        from gradekit.mistakes import catalogued_mistakes
+
+        found = catalogued_mistakes(Variant(problem, values, None, 0, result))
+        answers = {a.key: a for a in result.answers}
+        for name, keys in c.distinguish:
+            for k in keys:
+                for a in (x for key, x in answers.items() if key == k or key.startswith(k + "_")):
+                    m = next((m for m in found.get(a.key, []) if m.name == name), None)
+                    gap = abs(a.tolerance.difference(m.value, a.value)) if m else 0.0
+                    if gap < c.distinguish_factor * a.tolerance.band(a.value):
+                        return f"distinguish: {name} on {k}", result
     if c.answer_min_fraction:
         by_unit: dict[str, list[float]] = {}
         for a in result.answers:

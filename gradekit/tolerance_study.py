@@ -12,7 +12,7 @@ each, simulates:
   direction by up to ±0.5°; forces are read off a polygon whose largest force is ~80 mm long
   (±0.5 mm), torques are a force times an arm measured on the drawing (±0.5 mm each), angles are
   read to ±0.5°; the answer is written to 3 significant figures;
-* every catalogued mistake (`gradekit.assignment.catalogued_mistakes`, re-solved) and every
+* every catalogued mistake (`gradekit.mistakes.catalogued_mistakes`, re-solved) and every
   generic one (`gradekit.grading.compare.generic_mistakes`: sign, ×/÷1000, deg/rad).
 
 `evaluate` scores a tolerance (relative with an absolute floor, the grader's own
@@ -231,8 +231,8 @@ def simulate(
     problem: Problem, n_variants: int = 40, per_variant: int = 30, seed: int = 373, models: tuple[str, ...] = MODELS
 ) -> Study:
     """Draw variants of *problem* and simulate every honest model and every mistake on each."""
-    from gradekit.assignment import catalogued_mistakes
     from gradekit.grading.compare import generic_mistakes
+    from gradekit.mistakes import catalogued_mistakes
 
     randoms = any(p.random for p in problem.parameters.values())
     vs: list[Variant] = []

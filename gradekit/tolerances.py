@@ -33,20 +33,21 @@ def answer_kind(of: str, unit: str) -> str:
 
 # (method, kind) -> default, for answers the per-answer table (problem_bank/_tolerances.yaml) does not
 # cover yet. Measured by `python benchmarks/derive_tolerances.py` over the whole bank (21 problems,
-# 40 variants x 30 simulated students per model): honest false-reject / worst mistake detection.
+# 40 variants x 30 simulated students per model), pooled per kind: honest false-reject / worst
+# mistake detection. The worst detections are physics: a mistake smaller than honest error.
 DEFAULTS: dict[tuple[str, str], Tolerance] = {
     ("analytical", "angle"): Tolerance("relative", 0.0, 1.5, period=360.0),  # 0.00 % / 100 %
-    ("analytical", "force"): Tolerance("relative", 0.025),  # 0.07 % / 74.6 % (inertia torque left out)
-    ("analytical", "force-component"): Tolerance("relative", 0.03, floor=0.03),  # 0.09 % / 39.8 % (gravity)
-    ("analytical", "kinematic"): Tolerance("relative", 0.001, floor=0.03),  # 0.09 % / 98.9 % (x-y swapped)
+    ("analytical", "force"): Tolerance("relative", 0.025),  # 0.04 % / 77.1 % (inertia torque left out)
+    ("analytical", "force-component"): Tolerance("relative", 0.03, floor=0.03),  # 0.07 % / 41.7 % (gravity)
+    ("analytical", "kinematic"): Tolerance("relative", 0.001, floor=0.03),  # 0.08 % / 99.3 %
     ("analytical", "length"): Tolerance("relative", 0.0075, floor=0.03),  # 0.10 % / 100 %
-    ("analytical", "torque"): Tolerance("relative", 0.001, floor=0.1),  # 0.06 % / 27.5 % (gravity)
+    ("analytical", "torque"): Tolerance("relative", 0.015, floor=0.1),  # 0.09 % / 30.0 % (gravity)
     ("graphical", "angle"): Tolerance("relative", 0.0, 5.0, period=360.0),  # 0.23 % (loosest tried) / 51.7 %
-    ("graphical", "force"): Tolerance("relative", 0.1, floor=0.03),  # 0.08 % / 72.2 %
+    ("graphical", "force"): Tolerance("relative", 0.1, floor=0.03),  # 0.07 % / 71.2 %
     ("graphical", "force-component"): Tolerance("relative", 0.1, floor=0.03),  # as force (none in the bank)
-    ("graphical", "kinematic"): Tolerance("relative", 0.075, floor=0.03),  # 0.07 % / 100 %
-    ("graphical", "length"): Tolerance("relative", 0.001, floor=0.1),  # 0.00 % / 100 %
-    ("graphical", "torque"): Tolerance("relative", 0.15, floor=0.1),  # 0.05 % / 88.8 %
+    ("graphical", "kinematic"): Tolerance("relative", 0.1),  # 0.06 % / 100 %
+    ("graphical", "length"): Tolerance("relative", 0.1),  # 0.06 % / 100 %
+    ("graphical", "torque"): Tolerance("relative", 0.1, floor=0.1),  # 0.10 % / 96.2 %
 }
 
 

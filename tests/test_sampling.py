@@ -65,3 +65,35 @@ def test_impossible_constraints_name_the_constraint_that_rejected_most(tmp_path)
     p = load_problem(f)
     with pytest.raises(SamplingError, match=r"constraint 'require: the rod is at least 2.2 times the crank'"):
         variant(p, student="x", max_draws=50)
+
+
+def test_every_drawn_answer_is_gradable_and_listed_mistakes_are_distinguishable():
+    from gradekit.bank.registry import load_bank
+    from gradekit.mistakes import catalogued_mistakes
+
+    p = load_bank()["ch5-ex5-3"]
+    assert dict(p.constraints.distinguish) == {"static-answer": ("T",), "no-inertia-torque": ("T",)}
+    for i in range(20):
+        v = variant(p, course="MEG373", salt="t", student=f"g{i}")
+        for a in v.result.answers:
+            if a.unit != "deg":
+                assert abs(a.value) >= 2 * a.tolerance.band(a.value)
+        t = next(a for a in v.result.answers if a.key == "T")
+        found = {m.name: m.value for m in catalogued_mistakes(v)["T"]}
+        for name in ("static-answer", "no-inertia-torque"):
+            assert abs(found[name] - t.value) >= 2 * t.tolerance.band(t.value)
+            assert not t.tolerance.accepts(found[name], t.value)
+
+
+def test_distinguish_names_unknown_answers_and_mistakes(tmp_path):
+    text = open(EX51, encoding="utf-8").read().replace(
+        "  dead_centre_min: 20\n", "  dead_centre_min: 20\n  distinguish: {no-gravity: [T, Q], typo: [T]}\n")
+    f = tmp_path / "d.yaml"
+    f.write_text(text, encoding="utf-8")
+    from gradekit.errors import ErrorList
+
+    with pytest.raises(ErrorList) as err:
+        load_problem(f)
+    msg = err.value.format_message()
+    assert "constraints.distinguish.no-gravity: expected a list of answer keys among F03, F23, T; got ['T', 'Q']" in msg
+    assert "constraints.distinguish.typo: expected one of" in msg

@@ -124,6 +124,9 @@ class Constraints:
     dead_centre_min: float = 0.0
     answer_min_fraction: float = 0.0
     require: tuple[tuple[str, str], ...] = ()
+    gradable: float = 2.0  # every non-angle answer at least this many bands from zero
+    distinguish: tuple[tuple[str, tuple[str, ...]], ...] = ()  # (mistake, answer keys)
+    distinguish_factor: float = 2.0
 
 
 @dataclass(frozen=True)
@@ -719,7 +722,17 @@ def _constraints(c: _Collector, data: dict, names: set[str]) -> Constraints:
             node,
             "constraints",
             (),
-            ("transmission_min", "condition_max", "grashof", "dead_centre_min", "answer_min_fraction", "require"),
+            (
+                "transmission_min",
+                "condition_max",
+                "grashof",
+                "dead_centre_min",
+                "answer_min_fraction",
+                "require",
+                "gradable",
+                "distinguish",
+                "distinguish_factor",
+            ),
             data,
             "constraints",
         )
@@ -751,6 +764,21 @@ def _constraints(c: _Collector, data: dict, names: set[str]) -> Constraints:
             "constraints.grashof",
             f"expected crank-rocker, double-crank, grashof or non-grashof; got {_show(grashof)}",
         )
+    mistakes = ("static-answer", "no-inertia-torque", "no-gravity", "x-y-swapped", "magnitude-for-component")
+    keys = {a.get("key") for a in data.get("answers", []) or [] if isinstance(a, dict)}
+    distinguish = []
+    dnode = m.get("distinguish", {})
+    for name in c.mapping(dnode, "constraints.distinguish", (), mistakes, m, "distinguish") or {}:
+        ks = dnode[name]
+        if not isinstance(ks, list) or not all(k in keys for k in ks):
+            c.err(
+                dnode,
+                name,
+                f"constraints.distinguish.{name}",
+                f"expected a list of answer keys among {', '.join(sorted(map(str, keys)))}; got {_show(ks)}",
+            )
+            continue
+        distinguish.append((name, tuple(ks)))
     return Constraints(
         c.number(m, "transmission_min", "constraints.transmission_min", 0.0) or 0.0,
         c.number(m, "condition_max", "constraints.condition_max", 1e4, positive=True) or 1e4,
@@ -758,6 +786,9 @@ def _constraints(c: _Collector, data: dict, names: set[str]) -> Constraints:
         c.number(m, "dead_centre_min", "constraints.dead_centre_min", 0.0) or 0.0,
         c.number(m, "answer_min_fraction", "constraints.answer_min_fraction", 0.0) or 0.0,
         tuple(req),
+        c.number(m, "gradable", "constraints.gradable", 2.0) or 0.0,
+        tuple(distinguish),
+        c.number(m, "distinguish_factor", "constraints.distinguish_factor", 2.0, positive=True) or 2.0,
     )
 
 
