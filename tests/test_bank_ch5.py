@@ -107,15 +107,3 @@ def test_quiz_q3_derived_crank():
     a = {x.key: x.value for x in v.result.answers}
     assert a["w2"] == pytest.approx(10.764)
     assert a["FB_dir"] in (pytest.approx(90), pytest.approx(270))    # massless piston: vertical pin force
-
-
-@pytest.mark.parametrize("pid", sorted(FILES))
-def test_fifty_students_get_solvable_variants(pid):
-    p = problem(pid)
-    seen = set()
-    for i in range(50):
-        v = variant(p, course="MEG373", salt="t", student=f"s{i}")
-        assert v.result.virtual_work_residual < 1e-9
-        assert all(math.isfinite(a.value) for a in v.result.answers)
-        seen.add(tuple(sorted(v.values.items())))
-    assert len(seen) > 40  # students really get different values

@@ -180,15 +180,3 @@ def test_s004_case_study_published_variant_is_the_worked_example():
 
 
 # --- every student ----------------------------------------------------------------------------
-
-@pytest.mark.parametrize("pid", sorted(IDS))
-def test_fifty_students_get_sound_variants(pid):
-    p = PROBLEMS[pid]
-    seen = set()
-    for i in range(50):
-        v = variant(p, course="MEG373", salt="t", student=f"s{i}")
-        assert v.result.virtual_work_residual < 1e-9
-        assert all(math.isfinite(a.value) for a in v.result.answers)
-        seen.add(tuple(sorted(v.values.items())))
-    if any(q.random for q in p.parameters.values()):
-        assert len(seen) >= 45  # individual values
