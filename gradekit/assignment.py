@@ -16,7 +16,7 @@ from pathlib import Path
 
 from gradekit import __version__
 from gradekit.bank.registry import load_bank
-from gradekit.bank.schema import DEFAULT_TOLERANCE, Problem, _Collector, _tolerance
+from gradekit.bank.schema import Problem, _Collector, _tolerance
 from gradekit.bank.yamlfile import load
 from gradekit.errors import ErrorList, GradekitError, ProblemError
 from gradekit.keys import KeyEntry, Tolerance
@@ -31,8 +31,8 @@ class Item:
     label: str
     problem: Problem
     points: float
-    tolerance: Tolerance | None = None
-    tolerances: dict[str, Tolerance] = dataclasses.field(default_factory=dict)
+    tolerance: dict | None = None  # fields given for every answer, e.g. {"rel": 0.05}
+    tolerances: dict[str, dict] = dataclasses.field(default_factory=dict)  # per answer key
 
 
 @dataclass(frozen=True)
@@ -83,13 +83,12 @@ def load_assignment(path: Path | str, bank: Path | str | None = None) -> Assignm
             c.err(m, "label", f"{w}.label", f"expected a unique label, got {label!r} twice")
         labels.add(label)
         pts = c.number(m, "points", f"{w}.points", 0.0, positive=True) or 0.0
-        default = DEFAULT_TOLERANCE[prob.method]
-        tol = _tolerance(c, m.get("tolerance"), f"{w}.tolerance", default, m) if "tolerance" in m else None
+        tol = _override(c, m.get("tolerance"), f"{w}.tolerance", m) if "tolerance" in m else None
         per = {}
         tm = m.get("tolerances", {})
         keys = {a.key for a in prob.answers}
         for k in c.mapping(tm, f"{w}.tolerances", (), tuple(sorted(keys)), m, "tolerances") or {}:
-            per[k] = _tolerance(c, tm[k], f"{w}.tolerances.{k}", default, tm)
+            per[k] = _override(c, tm[k], f"{w}.tolerances.{k}", tm)
         items.append(Item(label, prob, pts, tol, per))
     redraws: dict[str, dict[str, int]] = {}
     rd = data.get("redraws", {})
@@ -123,6 +122,12 @@ def load_assignment(path: Path | str, bank: Path | str | None = None) -> Assignm
     )
 
 
+def _override(c: _Collector, node, where: str, parent) -> dict:
+    """The tolerance fields an instructor gave, validated; laid over each answer's own tolerance."""
+    tol = _tolerance(c, node, where, Tolerance(), parent)
+    return {k: getattr(tol, k) for k in (node if isinstance(node, dict) else {}) if hasattr(tol, k)}
+
+
 def student_variant(asg: Assignment, item: Item, student_id: str, redraw: int = 0) -> Variant:
     """The variant of one item for one student (deterministic)."""
     try:
@@ -140,9 +145,12 @@ def keys_for(asg: Assignment, item: Item, student_id: str, v: Variant, with_mist
     mistakes = catalogued_mistakes(v) if with_mistakes else {}
     out = []
     for a in answers:
-        base = a.key.split("_")[0] if a.case else a.key
-        override = item.tolerances.get(base) or item.tolerance
-        tol = replace(override, period=a.tolerance.period).resolve(a.scale) if override else a.tolerance
+        override = item.tolerances.get(a.base_key) or item.tolerance
+        if override:  # the instructor's fields over the answer's own (measured) tolerance
+            spec = next(s for s in item.problem.answers if s.key == a.base_key)
+            tol = replace(spec.tolerance, **override).resolve(a.scale)
+        else:
+            tol = a.tolerance
         out.append(
             KeyEntry(
                 student_id,
@@ -207,8 +215,7 @@ def seeds_of(asg: Assignment, student_id: str, redraws: dict[str, int] | None = 
     out = {}
     for it in asg.items:
         redraw = (redraws or {}).get(it.label, 0)
-        out[it.label] = {"seed": derive_seed(asg.course, asg.salt, student_id, it.problem.id, redraw),
-                         "redraw": redraw}
+        out[it.label] = {"seed": derive_seed(asg.course, asg.salt, student_id, it.problem.id, redraw), "redraw": redraw}
     return out
 
 

@@ -18,7 +18,7 @@ from gradekit.bank.schema import ANGLE_PARAMS, Parameter, Problem, Value, order
 from gradekit.errors import GeometryError, ProblemError
 from gradekit.mechanics.forces import Solution, solve
 from gradekit.mechanics.mechanisms import Motion, build
-from gradekit.mechanics.model import GROUND, Analysis, Linkage, Load, MassProps
+from gradekit.mechanics.model import Analysis, Linkage, Load, MassProps
 
 SI = {
     "length": "m",
@@ -198,6 +198,7 @@ class Answer:
     of: str
     case: str | None
     scale: float = 0.0  # the variant's largest answer of the same dimension (for tolerance floors)
+    base_key: str = ""  # the problem's answer key (``key`` carries a case suffix for multi-case answers)
 
 
 @dataclass
@@ -322,7 +323,16 @@ def solve_problem(problem: Problem, values: dict[str, float]) -> Result:
                 ) from None
             answers.append(
                 Answer(
-                    key, value, spec.unit, spec.description, spec.sign, spec.points, spec.tolerance, spec.of, case.name
+                    key,
+                    value,
+                    spec.unit,
+                    spec.description,
+                    spec.sign,
+                    spec.points,
+                    spec.tolerance,
+                    spec.of,
+                    case.name,
+                    base_key=spec.key,
                 )
             )
     # Floors are fractions of the variant's scale: its largest answer of the same dimension.
@@ -341,4 +351,4 @@ def published_values(problem: Problem) -> dict[str, float]:
     return {n: p.value for n, p in problem.parameters.items() if not p.expr and p.value is not None}
 
 
-__all__ = ["GROUND", "Result", "solve_problem", "published_values", "fill", "build_linkage"]
+__all__ = ["Result", "solve_problem", "published_values", "fill", "build_linkage"]

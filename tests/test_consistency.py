@@ -40,3 +40,21 @@ def test_manifest_counters_reproduce_generation_exactly(tmp_path):
     keys_a, _ = class_keys(asg, ids, with_mistakes=False)
     keys_b, _ = class_keys(asg, ids, redraws=counters, with_mistakes=False)
     assert [(k.student_id, k.key, k.value) for k in keys_a] == [(k.student_id, k.key, k.value) for k in keys_b]
+
+
+def test_assignment_tolerance_overrides_lay_over_the_measured_tolerance(tmp_path):
+    from gradekit.bank.registry import load_bank
+
+    f = tmp_path / "o.yaml"
+    f.write_text(
+        "title: T\ncourse: MEG373\nsalt: s1\nbank: " + str(Path("problem_bank").resolve()) + "\n"
+        "problems:\n  - {id: ch5-ex5-3, points: 10, tolerance: {rel: 0.05}, tolerances: {T: {abs: 40}}}\n",
+        encoding="utf-8",
+    )
+    asg = load_assignment(f)
+    keys, _ = class_keys(asg, ["s1"], with_mistakes=False)
+    by = {k.key: k.tolerance for k in keys}
+    spec = {a.key: a.tolerance for a in load_bank()["ch5-ex5-3"].answers}
+    assert by["p1.aG2"].rel == 0.05 and by["p1.aG2"].floor == spec["aG2"].floor  # only rel replaced
+    assert by["p1.aG2_dir"].period == 360.0  # angles keep their wrap
+    assert by["p1.T"].abs >= 40 and by["p1.T"].rel == spec["T"].rel  # per-answer field over the measured one

@@ -448,8 +448,6 @@ def _tolerance(c: _Collector, node: Any, where: str, default: Tolerance, parent:
     return Tolerance(mode, rel or 0.0, ab or 0.0, sig, fl or 0.0, default.period)
 
 
-DEFAULT_TOLERANCE = {"analytical": Tolerance("relative", 0.01, 0.0), "graphical": Tolerance("relative", 0.03, 0.0)}
-
 TOP_REQUIRED = ("id", "title", "source", "method", "analysis", "mechanism", "parameters", "statement", "answers")
 TOP_OPTIONAL = (
     "tags",
@@ -857,9 +855,9 @@ def _answers(c: _Collector, data: dict, method: str, cases: dict) -> tuple[Answe
         if pts is not None and pts < 0:
             c.err(m, "points", f"{w}.points", f"expected a number of at least 0, got {pts}")
         try:
-            base = tolerances.default(method, str(of), unit) if unit else DEFAULT_TOLERANCE[method]
-        except GradekitError:
-            base = DEFAULT_TOLERANCE[method]
+            base = tolerances.default(method, str(of), unit) if unit else Tolerance()
+        except GradekitError:  # the unreadable unit is reported by c.unit above
+            base = Tolerance()
         tol = _tolerance(c, m.get("tolerance"), f"{w}.tolerance", base, m)
         out.append(
             AnswerSpec(

@@ -24,7 +24,7 @@ from gradekit.figures.canvas import (
     row,
     seg_distance,
 )
-from gradekit.figures.mech import BAR, PIN, com_marker, draw_linkage, mech_extent
+from gradekit.figures.mech import BAR, PIN, com_marker, draw_linkage
 from gradekit.mechanics.forces import AppliedForce, Member
 from gradekit.mechanics.model import Linkage, Prismatic
 from gradekit.pipeline import CaseResult, Result
@@ -66,7 +66,7 @@ def fbd(result: Result, cr: CaseResult, body: str, member: Member) -> Canvas:
     link = cr.solution.linkage
     key = driver_key(result)
     pts = [f.point for f in member.forces] + [link.bodies[body].origin.pos()]
-    lo, hi = mech_extent(link) if False else (np.min(pts, axis=0), np.max(pts, axis=0))
+    lo, hi = np.min(pts, axis=0), np.max(pts, axis=0)
     span = max(float(np.max(hi - lo)), 1e-6)
     s = min(FIT[0] * 0.55 / span, 6 * PT_PER_M)
     centre = (lo + hi) / 2

@@ -181,9 +181,6 @@ def solve(link: Linkage, an: Analysis, virtual: Linkage | None = None) -> Soluti
     names = list(link.bodies)
     row = {n: 3 * i for i, n in enumerate(names)}
     origin = {n: link.bodies[n].origin.pos() for n in names}
-    cols: list[tuple[str, int]] = []
-    for j in link.joints:
-        cols.append((j.name, len(cols)))
     ncol = 2 * len(link.joints) + 1
     nrow = 3 * len(names)
     A = np.zeros((nrow, ncol))
