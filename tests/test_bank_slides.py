@@ -1,6 +1,7 @@
 """The bank problems of seeds 002 (slides), 003 (MechAnalyzer paper) and 004 (slides, III.6).
 
-Published versions reproduce the printed numbers (and NOTES.md's exact values); the s003
+Published versions against independent formulations (the printed numbers themselves are checked
+once, in test_bank_published); the s003
 superposition parts add up to the net torque; 50 students each get a variant that solves with a
 virtual-work residual below 1e-9. The files are loaded by path so that these tests do not depend
 on the rest of the bank.
@@ -11,7 +12,9 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
+import numpy as np
 import pytest
+import reference
 
 from gradekit import units
 from gradekit.bank.schema import Problem, load_problem
@@ -47,36 +50,21 @@ def test_published_version_passes_its_own_constraints(pid):
     assert result is not None and result.virtual_work_residual < 1e-9
 
 
-PUBLISHED = [(pid, pub) for pid in sorted(IDS) for pub in PROBLEMS[pid].published]
-
-
-@pytest.mark.parametrize(("pid", "pub"), PUBLISHED, ids=[f"{pid}:{pub.key}" for pid, pub in PUBLISHED])
-def test_printed_numbers_within_their_stated_precision(pid, pub):
-    p = PROBLEMS[pid]
-    answer = next(a for a in solve_problem(p, published_values(p)).answers if a.key == pub.key)
-    got = units.convert(answer.value, answer.unit, pub.unit) if answer.unit != pub.unit else answer.value
-    assert got == pytest.approx(pub.value, rel=pub.rel), pub.note
-
-
 # --- seed 002 ---------------------------------------------------------------------------------
 
-def test_s002_fourbar_120lb_reconstruction():
-    a = published("s002-fourbar-120lb")
-    assert a["T2"] == pytest.approx(275.6, abs=0.05)  # 275.6 in-lb, CCW
-    assert a["F32"] == pytest.approx(113.53, abs=0.005)  # printed 113.52 (graphical)
-    assert a["F32"] == pytest.approx(113.52, rel=5e-4)
-    assert a["T2"] / a["F32"] == pytest.approx(2.428, abs=5e-4)  # the arm d
-    assert a["F34"] == pytest.approx(a["F32"])  # the coupler is a two-force member
-
-
-def test_s002_inertia_of_link2():
-    a = published("s002-inertia-link2")
-    assert a["ag2"] == pytest.approx(1029.6, abs=0.05)
-    assert a["ag2_angle"] == pytest.approx(360 - 58.62, abs=0.005)
-    assert a["FI2"] == pytest.approx(16.0, abs=0.005)
-    assert a["FI2_angle"] == pytest.approx(a["ag2_angle"] - 180, abs=1e-9)
-    assert a["h2"] == pytest.approx(1.8, abs=0.001)
-    assert a["TI2"] == pytest.approx(-28.8, abs=0.005)  # 28.8 in-lb CW
+def test_s002_fourbar_120lb_against_moment_equations():
+    """NOTES's reconstruction solved by moments (coupler a two-force member); the printed arm d."""
+    v = published_values(PROBLEMS["s002-fourbar-120lb"])
+    pts = reference.fourbar_points(v["r2"], v["r3"], v["r4"], v["r1"], math.radians(v["theta2"]))
+    u = (pts["B"] - pts["O4"]) / np.hypot(*(pts["B"] - pts["O4"]))
+    load = (pts["O4"] + v["c4"] * u, v["P"] * np.array([u[1], -u[0]]), 0.0)  # ⟂ O4B, CW about O4
+    ref = reference.fourbar_statics(pts, rocker=[load])
+    a = published("s002-fourbar-120lb")  # lbf, lbf·in
+    assert a["T2"] == pytest.approx(ref["T"], rel=1e-9)
+    assert a["F32"] == pytest.approx(np.hypot(*ref["A"]), rel=1e-9)
+    assert a["F34"] == pytest.approx(np.hypot(*ref["B"]), rel=1e-9)
+    assert a["F14"] == pytest.approx(np.hypot(*ref["O4"]), rel=1e-9)
+    assert abs(a["T2"] / a["F32"] - 2.428) <= 0.0005  # 002: arm d = 2.428 in
 
 
 def test_s002_matrix_answers_satisfy_the_slides_nine_equations():
@@ -139,37 +127,20 @@ def test_s003_superposition_parts_sum_to_the_net_torque(pid):
                    for k in ("tau1", "tau2", "tau3"))
 
 
-def test_s003_paper_table_is_quoted_but_not_asserted():
-    for pid in S003:
-        notes = PROBLEMS[pid].notes
-        assert "−10.98" in notes and "−111.30" in notes and "not asserted" in notes
-        assert PROBLEMS[pid].figure.true_scale is not None
-        assert PROBLEMS[pid].method == "graphical"
-
-
 # --- seed 004 ---------------------------------------------------------------------------------
 
-def test_s004_ex3_6_exact_values():
-    a = published("s004-ex3-6")
-    exact = {"Cx": (-114.75, 0.005), "Cy": (37.349, 0.0005), "N": (-35.389, 0.0005),
-             "Bx": (148.93, 0.005), "By": (-20.967, 0.0005), "Ax": (-154.59, 0.005),
-             "Ay": (15.506, 0.0005), "T": (9.617, 0.0005),
-             "aG1": (400.0, 0.05), "aGx": (-569.7, 0.05), "aGy": (-282.8, 0.05),
-             "aC": (-573.8, 0.05), "alpha2": (2283, 0.5)}
-    for key, (value, half) in exact.items():
-        assert a[key] == pytest.approx(value, abs=half), key
-
-
-def test_s004_ex3_6_slip_is_about_0_4_percent():
-    a = published("s004-ex3-6")
-    pub = {x.key: x for x in PROBLEMS["s004-ex3-6"].published}
-    for key in ("Bx", "Ax", "T"):
-        off = abs(a[key] - pub[key].value) / abs(pub[key].value)
-        assert 0.003 < off < pub[key].rel  # evaluated with the slip 579.7 instead of 569.7
-    # with 579.7 the slides' own working gives their Bx
-    # (Bx = -Cx + m2·a_Gx with the printed, rounded Cx = -114.7)
-    assert 114.7 + 0.06 * 579.7 == pytest.approx(149.48, abs=0.005)
-    assert 114.7 + 0.06 * 569.7 == pytest.approx(148.88, abs=0.005)
+def test_s004_ex3_6_kinematics_closed_form():
+    """In-line slider crank at constant ω: x_C'', the rod's α and a_G from the closed-form
+    positions, differentiated by hand (the slides print a_C = 573.7 for 573.76)."""
+    v = published_values(PROBLEMS["s004-ex3-6"])
+    a = published("s004-ex3-6")  # m/s², rad/s²
+    mm = 1e-3
+    k = reference.slider_kinematics(v["AB"] * mm, v["BC"] * mm, math.radians(v["theta"]), v["omega"], v["BG"] * mm)
+    assert a["aC"] == pytest.approx(k["aC"], rel=1e-9)
+    assert a["aGx"] == pytest.approx(k["aGx"], rel=1e-9)
+    assert a["aGy"] == pytest.approx(k["aGy"], rel=1e-9)
+    assert a["alpha2"] == pytest.approx(k["alpha_rod"], rel=1e-9)
+    assert a["aG1"] == pytest.approx(v["omega"] ** 2 * v["AB"] * mm / 2, rel=1e-9)  # G1 at mid-crank
 
 
 def test_s004_case_study_published_variant_is_the_worked_example():
@@ -177,6 +148,3 @@ def test_s004_case_study_published_variant_is_the_worked_example():
     for key, value in b.items():
         assert a[key] == pytest.approx(value, rel=1e-12)
     assert all(p.random for n, p in PROBLEMS["s004-case-study"].parameters.items() if n not in ("g", "J2"))
-
-
-# --- every student ----------------------------------------------------------------------------
