@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import logging
 import sys
+from pathlib import Path
 
 import click
 
@@ -14,7 +15,18 @@ from gradekit.errors import GradekitError
 log = logging.getLogger("gradekit")
 
 
-@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+class _Group(click.Group):
+    """The command group: Ctrl-C ends any command with exit 130 (128 + SIGINT) and one line."""
+
+    def invoke(self, ctx: click.Context):
+        try:
+            return super().invoke(ctx)
+        except KeyboardInterrupt:
+            click.echo("interrupted (Ctrl-C)", err=True)
+            raise click.exceptions.Exit(130) from None
+
+
+@click.group(cls=_Group, context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(__version__, prog_name="gradekit")
 @click.option("-v", "--verbose", count=True, help="More output.")
 @click.option("-q", "--quiet", is_flag=True, help="Only errors.")
@@ -144,10 +156,18 @@ def bank_show(problem: str, student: str | None, course: str, salt: str, bank: s
 )
 @_bank_opt
 def bank_check(ids: tuple[str, ...], variants: int, class_size: int, bank: str | None) -> None:
-    """Stress-test problems: every variant assembles, solves, checks and grades its own key."""
-    from gradekit.bank.check import check_bank
+    """Stress-test problems (bank ids or YAML paths, as for solve): every variant assembles, solves, checks
+    and grades its own key."""
+    from gradekit.bank.check import check_bank, check_problem
+    from gradekit.bank.registry import resolve
 
-    ok = check_bank(ids, variants, class_size, bank, echo=click.echo)
+    paths = [i for i in ids if i.endswith((".yaml", ".yml")) or Path(i).is_file()]
+    named = [i for i in ids if i not in paths]
+    ok = all([check_problem(resolve(p, bank), variants, class_size, click.echo) for p in paths])
+    if named or not paths:
+        ok &= check_bank(named, variants, class_size, bank, echo=click.echo)
+    else:
+        click.echo("bank check: " + ("all problems passed" if ok else "FAILED"))
     if not ok:
         sys.exit(1)
 

@@ -1,15 +1,74 @@
-"""Render a problem statement (jinja2) with one variant's values, formatted as printed."""
+"""Render a problem statement (jinja2) with one variant's values, formatted as printed.
+
+A statement comes from a problem file, which is data: it renders in jinja2's immutable sandbox
+(no ``__globals__``, ``__class__`` or other internals, nothing mutated), with only expressions,
+``if`` and ``set`` allowed (no loops, macros, includes or imports) and bounded arithmetic, so a
+statement can neither run code nor hang a run.
+"""
 
 from __future__ import annotations
 
+import operator
+
 import jinja2
+from jinja2 import nodes
+from jinja2.sandbox import ImmutableSandboxedEnvironment
 
 from gradekit import units
 from gradekit.bank.schema import Problem
 from gradekit.errors import ProblemError
 from gradekit.report import fmt
 
-_ENV = jinja2.Environment(undefined=jinja2.StrictUndefined, autoescape=False, keep_trailing_newline=False)
+MAX_LENGTH = 20_000  # characters of statement source and of rendered text
+MAX_BITS = 4_096  # integers in statement arithmetic
+_ALLOWED = (nodes.Output, nodes.If, nodes.Assign)
+_FILTERS = {"round", "abs", "upper", "lower", "title", "capitalize", "trim", "default", "float", "int", "string"}
+_BINOPS = {  # jinja2 operator -> the function the sandbox calls after its checks
+    "+": operator.add,
+    "-": operator.sub,
+    "*": operator.mul,
+    "/": operator.truediv,
+    "//": operator.floordiv,
+    "%": operator.mod,
+    "**": operator.pow,
+}
+
+
+class _Sandbox(ImmutableSandboxedEnvironment):
+    """The immutable sandbox with every arithmetic operator checked (no huge powers or strings)."""
+
+    intercepted_binops = frozenset(_BINOPS)
+
+    def call_binop(self, context, operator: str, left, right):
+        if _too_big(operator, left, right):
+            raise jinja2.sandbox.SecurityError(f"{operator} gives a result too large to print")
+        return _BINOPS[operator](left, right)
+
+
+def _bits(x: object) -> int:
+    return abs(x).bit_length() if isinstance(x, int) else 0
+
+
+def _too_big(op: str, left: object, right: object) -> bool:
+    """Whether ``left op right`` would be a huge integer or a string/list over `MAX_LENGTH`."""
+    if op == "**":
+        if isinstance(right, (int, float)) and isinstance(left, (int, float)) and abs(left) > 1:
+            bits = max(_bits(left), 1) if isinstance(left, int) else 0
+            return abs(right) > 1_000 or (isinstance(right, int) and bits * right > MAX_BITS)
+        return False
+    if op == "*" and _bits(left) + _bits(right) > MAX_BITS:
+        return True
+    for a, b in ((left, right), (right, left)):
+        if isinstance(a, (str, list, tuple)):
+            if op == "*" and isinstance(b, int) and len(a) * b > MAX_LENGTH:
+                return True
+            if op == "+" and isinstance(b, (str, list, tuple)) and len(a) + len(b) > MAX_LENGTH:
+                return True
+    return False
+
+
+_ENV = _Sandbox(undefined=jinja2.StrictUndefined, autoescape=False, keep_trailing_newline=False)
+_ENV.globals.clear()  # no range, lipsum, dict, cycler, joiner or namespace
 
 
 class Shown(str):
@@ -27,12 +86,51 @@ def shown(problem: Problem, name: str, value: float) -> Shown:
     return s
 
 
+def _refuse(problem: Problem, message: str) -> ProblemError:
+    line = problem.lines.get("statement")
+    return ProblemError(message, path=problem.path, line=line, field="statement")
+
+
+def _check(problem: Problem, source: str) -> None:
+    """Refuse statements that are longer than `MAX_LENGTH` or use more than expressions and ``if``."""
+    if len(source) > MAX_LENGTH:
+        raise _refuse(problem, f"expected a statement of at most {MAX_LENGTH:,} characters, got {len(source):,}")
+    try:
+        tree = _ENV.parse(source)
+    except jinja2.TemplateSyntaxError as exc:
+        raise _refuse(problem, f"expected a statement using the problem's parameters, got {exc}") from None
+    for node in tree.find_all((nodes.Stmt, nodes.Call, nodes.Filter, nodes.Test)):
+        if isinstance(node, _ALLOWED) or (isinstance(node, nodes.Filter) and node.name in _FILTERS):
+            continue
+        if isinstance(node, nodes.Test) and node.name in ("defined", "undefined", "number", "string"):
+            continue
+        if isinstance(node, nodes.Call):
+            what = "a function call"
+        elif isinstance(node, (nodes.Filter, nodes.Test)):
+            what = f"the {type(node).__name__.lower()} {node.name!r}"
+        else:
+            what = f"a {type(node).__name__.lower()} block"
+        raise _refuse(
+            problem,
+            f"expected {{{{ parameter }}}}, {{% if %}} and {{% set %}} only, got {what} "
+            f"on line {node.lineno} of the statement",
+        )
+
+
 def render_statement(problem: Problem, values: dict[str, float]) -> str:
     """The statement with each parameter name replaced by its value and unit."""
+    _check(problem, problem.statement)
     ctx = {n: shown(problem, n, v) for n, v in values.items() if n in problem.parameters}
     try:
-        return _ENV.from_string(problem.statement).render(**ctx).strip()
-    except jinja2.TemplateError as exc:
-        raise ProblemError(
-            f"expected a statement using the problem's parameters, got {exc}", path=problem.path, field="statement"
+        text = _ENV.from_string(problem.statement).render(**ctx).strip()
+    except jinja2.sandbox.SecurityError as exc:
+        raise _refuse(
+            problem, f"expected a statement using the problem's parameters, got an unsafe use: {exc}"
         ) from None
+    except jinja2.TemplateError as exc:
+        raise _refuse(problem, f"expected a statement using the problem's parameters, got {exc}") from None
+    except (TypeError, ValueError, ArithmeticError) as exc:
+        raise _refuse(problem, f"expected a statement using the problem's parameters, got {exc}") from None
+    if len(text) > MAX_LENGTH:
+        raise _refuse(problem, f"expected a rendered statement of at most {MAX_LENGTH:,} characters, got more")
+    return text

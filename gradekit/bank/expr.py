@@ -61,14 +61,79 @@ class ExprError(ValueError):
     """An expression that is not allowed or cannot be evaluated."""
 
 
+MAX_LENGTH = 500  # characters: the longest bank expression is under 100
+MAX_DEPTH = 40  # nesting of operators, calls and parentheses
+MAX_EXPONENT = 1000.0  # |b| in a**b: physics never needs more, and larger towers are refused unevaluated
+
+
+def _shown(text: str) -> str:
+    return repr(text) if len(text) <= 60 else repr(text[:57] + "...")
+
+
+def _depth(node: ast.AST) -> int:
+    """How deeply *node* nests (iteratively, so a hostile tree cannot exhaust the stack)."""
+    deepest, stack = 0, [(node, 1)]
+    while stack:
+        n, d = stack.pop()
+        deepest = max(deepest, d)
+        if deepest > MAX_DEPTH:
+            break
+        stack.extend((child, d + 1) for child in ast.iter_child_nodes(n))
+    return deepest
+
+
+def _constant(node: ast.AST) -> float | None:
+    """The value of a sub-expression made of numbers and arithmetic only (else None)."""
+    if isinstance(node, ast.Constant) and isinstance(node.value, (int, float)) and not isinstance(node.value, bool):
+        return float(node.value)
+    if isinstance(node, ast.UnaryOp) and isinstance(node.op, (ast.USub, ast.UAdd)):
+        v = _constant(node.operand)
+        return None if v is None else (-v if isinstance(node.op, ast.USub) else v)
+    if isinstance(node, ast.BinOp) and type(node.op) in _BIN:
+        a, b = _constant(node.left), _constant(node.right)
+        if a is None or b is None:
+            return None
+        try:
+            return float(_arith(node.op, a, b))
+        except (ZeroDivisionError, OverflowError, ValueError, ExprError):
+            return None
+    return None
+
+
+def _check_power(node: ast.BinOp, text: str) -> None:
+    exponent = node.right
+    while isinstance(exponent, ast.UnaryOp) and isinstance(exponent.op, (ast.USub, ast.UAdd)):
+        exponent = exponent.operand
+    if isinstance(exponent, ast.BinOp) and isinstance(exponent.op, ast.Pow):
+        inner = _constant(exponent)
+        if inner is None or abs(inner) > MAX_EXPONENT:
+            raise ExprError(f"expected exponents of at most {MAX_EXPONENT:g}, got a power tower in {_shown(text)}")
+    value = _constant(node.right)
+    if value is not None and abs(value) > MAX_EXPONENT:
+        raise ExprError(f"expected exponents of at most {MAX_EXPONENT:g}, got {value:g} in {_shown(text)}")
+
+
 @lru_cache(maxsize=2048)
 def parse(text: str) -> ast.Expression:
-    """Parse and check *text*; raise `ExprError` for anything outside the allowed grammar."""
+    """Parse and check *text*; raise `ExprError` for anything outside the allowed grammar.
+
+    Refused before anything is evaluated: text over `MAX_LENGTH` characters, nesting deeper than
+    `MAX_DEPTH`, and powers whose exponent is a constant over `MAX_EXPONENT` or a power tower
+    (``9**9**9**9``).
+    """
+    if len(text) > MAX_LENGTH:
+        raise ExprError(f"expected an expression of at most {MAX_LENGTH} characters, got {len(text):,}")
     try:
         tree = ast.parse(text, mode="eval")
     except SyntaxError as exc:
-        raise ExprError(f"expected an arithmetic expression, got {text!r} ({exc.msg})") from None
+        raise ExprError(f"expected an arithmetic expression, got {_shown(text)} ({exc.msg})") from None
+    except (RecursionError, MemoryError):
+        raise ExprError(f"expected an expression nested at most {MAX_DEPTH} deep, got {_shown(text)}") from None
+    if _depth(tree) > MAX_DEPTH:
+        raise ExprError(f"expected an expression nested at most {MAX_DEPTH} deep, got {_shown(text)}")
     for node in ast.walk(tree):
+        if isinstance(node, ast.BinOp) and isinstance(node.op, ast.Pow):
+            _check_power(node, text)
         ok = isinstance(
             node,
             (
@@ -98,7 +163,7 @@ def parse(text: str) -> ast.Expression:
             raise ExprError(
                 f"expected numbers, names, arithmetic and {', '.join(sorted(FUNCTIONS))}; "
                 f"got {ast.unparse(node) if hasattr(node, 'lineno') else type(node).__name__!s} "
-                f"in {text!r}"
+                f"in {_shown(text)}"
             )
     return tree
 
@@ -111,24 +176,38 @@ def names(text: str) -> set[str]:
 
 
 def evaluate(text: str, env: Mapping[str, float]) -> float:
-    """Evaluate *text* with parameter values *env*."""
+    """Evaluate *text* with parameter values *env* (numbers as floats, so no result is unbounded)."""
     return _eval(parse(text).body, env, text)
+
+
+def _arith(op: ast.operator, a, b):
+    """One arithmetic operation on floats; a power's exponent is bounded (`MAX_EXPONENT`)."""
+    if isinstance(op, ast.Pow) and isinstance(b, (int, float)) and abs(b) > MAX_EXPONENT:
+        raise ExprError(f"expected exponents of at most {MAX_EXPONENT:g}, got {b:g}")
+    a = float(a) if isinstance(a, int) else a
+    b = float(b) if isinstance(b, int) else b
+    value = _BIN[type(op)](a, b)
+    if isinstance(value, complex):
+        raise ExprError("the result is not a real number")
+    return value
 
 
 def _eval(node: ast.AST, env: Mapping[str, float], text: str):
     if isinstance(node, ast.Constant):
-        return node.value
+        return float(node.value) if isinstance(node.value, int) and not isinstance(node.value, bool) else node.value
     if isinstance(node, ast.Name):
         if node.id in env:
             return env[node.id]
         if node.id in CONSTANTS:
             return CONSTANTS[node.id]
-        raise ExprError(f"unknown name {node.id!r} in {text!r}")
+        raise ExprError(f"unknown name {node.id!r} in {_shown(text)}")
     if isinstance(node, ast.BinOp):
         try:
-            return _BIN[type(node.op)](_eval(node.left, env, text), _eval(node.right, env, text))
-        except (ZeroDivisionError, OverflowError, KeyError) as exc:
-            raise ExprError(f"cannot evaluate {text!r}: {exc}") from None
+            return _arith(node.op, _eval(node.left, env, text), _eval(node.right, env, text))
+        except (ZeroDivisionError, OverflowError, KeyError, TypeError) as exc:
+            raise ExprError(f"cannot evaluate {_shown(text)}: {exc}") from None
+        except ExprError as exc:
+            raise ExprError(f"cannot evaluate {_shown(text)}: {exc}") from None
     if isinstance(node, ast.UnaryOp):
         v = _eval(node.operand, env, text)
         if isinstance(node.op, ast.USub):
@@ -137,7 +216,7 @@ def _eval(node: ast.AST, env: Mapping[str, float], text: str):
             return v
         if isinstance(node.op, ast.Not):
             return not v
-        raise ExprError(f"operator not allowed in {text!r}")
+        raise ExprError(f"operator not allowed in {_shown(text)}")
     if isinstance(node, ast.Compare):
         left = _eval(node.left, env, text)
         for op, comp in zip(node.ops, node.comparators, strict=True):
@@ -156,5 +235,5 @@ def _eval(node: ast.AST, env: Mapping[str, float], text: str):
         try:
             return FUNCTIONS[node.func.id](*args)
         except (ValueError, TypeError, OverflowError, ZeroDivisionError) as exc:
-            raise ExprError(f"cannot evaluate {text!r}: {exc}") from None
-    raise ExprError(f"not allowed in {text!r}")
+            raise ExprError(f"cannot evaluate {_shown(text)}: {exc}") from None
+    raise ExprError(f"not allowed in {_shown(text)}")

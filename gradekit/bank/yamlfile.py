@@ -29,8 +29,67 @@ class LineList(list):
         self.lines: list[int] = []
 
 
+MAX_BYTES = 2_000_000  # the largest bank file is ~20 kB
+MAX_DEPTH = 60  # nesting of mappings and sequences
+MAX_NODES = 200_000  # nodes after expanding every alias (a billion-laughs file has 10**9)
+
+
 class _Loader(yaml.SafeLoader):
-    """SafeLoader that records node lines and rejects duplicate keys."""
+    """SafeLoader that records node lines, rejects duplicate keys and bounds nesting and aliases.
+
+    Every alias re-uses its anchor's whole subtree, so a few lines can stand for 10**9 nodes; the
+    composed document is measured with aliases expanded (memoised per node, so measuring is
+    linear) and refused above `MAX_NODES`, before anything is constructed.
+    """
+
+    def __init__(self, stream) -> None:
+        super().__init__(stream)
+        self._depth = 0
+
+    def compose_node(self, parent, index):
+        self._depth += 1
+        try:
+            if self._depth > MAX_DEPTH:
+                mark = self.peek_event().start_mark
+                raise yaml.composer.ComposerError(
+                    None, None, f"nesting deeper than {MAX_DEPTH} levels", mark
+                )
+            return super().compose_node(parent, index)
+        finally:
+            self._depth -= 1
+
+    def get_single_node(self):
+        node = super().get_single_node()
+        if node is not None:
+            _measure(node)
+        return node
+
+
+def _measure(root: yaml.Node) -> None:
+    """Raise a `ComposerError` when *root*, aliases expanded, has more than `MAX_NODES` nodes."""
+    sizes: dict[int, int] = {}
+    stack: list[tuple[yaml.Node, bool]] = [(root, False)]
+    while stack:
+        node, children_done = stack.pop()
+        if id(node) in sizes:
+            continue
+        if isinstance(node, yaml.ScalarNode):
+            sizes[id(node)] = 1
+            continue
+        kids = [x for pair in node.value for x in pair] if isinstance(node, yaml.MappingNode) else list(node.value)
+        if not children_done:
+            stack.append((node, True))
+            stack.extend((k, False) for k in kids if id(k) not in sizes)
+            continue
+        total = 1 + sum(sizes.get(id(k), 1) for k in kids)
+        if total > MAX_NODES:
+            raise yaml.composer.ComposerError(
+                None,
+                None,
+                f"more than {MAX_NODES:,} values once its aliases (*name) are expanded",
+                node.start_mark,
+            )
+        sizes[id(node)] = total
 
 
 def _mapping(loader: _Loader, node: yaml.MappingNode) -> LineDict:
@@ -65,6 +124,9 @@ def load(path: Path | str) -> LineDict:
     """Read a YAML mapping with line numbers; raise `ProblemError` naming the file and line."""
     path = Path(path)
     try:
+        size = path.stat().st_size
+        if size > MAX_BYTES:
+            raise ProblemError(f"expected a YAML file under {MAX_BYTES:,} bytes, got {size:,}", path=str(path))
         text = path.read_text(encoding="utf-8-sig")
     except (OSError, UnicodeDecodeError) as exc:
         raise ProblemError(
@@ -72,6 +134,8 @@ def load(path: Path | str) -> LineDict:
         ) from None
     try:
         data = yaml.load(text, Loader=_Loader)  # noqa: S506 - _Loader is a SafeLoader subclass
+    except RecursionError:
+        raise ProblemError(f"expected YAML nested at most {MAX_DEPTH} levels, got deeper", path=str(path)) from None
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         line = mark.line + 1 if mark else None
