@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import dataclass
 
 import numpy as np
@@ -46,9 +47,12 @@ def build_context(asg: Assignment, student: Student, solved: list[Solved], *, ke
     what it is never given.
     """
     problems = []
+    number = 0  # the sheet's figure numbers, in the order the sheet template places the figures
     for s in solved:
         res = s.variant.result
         entries = keys_for(asg, s.item, student.student_id, s.variant, with_mistakes=False)
+        scenes = _scenes(res, s.scenes, number)
+        number += len(scenes)
         p = {
             "label": s.item.label,
             "title": res.problem.title,
@@ -56,8 +60,9 @@ def build_context(asg: Assignment, student: Student, solved: list[Solved], *, ke
             "points": num(s.item.points, 4),
             "method": res.problem.method,
             "analysis": res.problem.analysis,
-            "statement": paragraphs(render_statement(res.problem, res.values)),
-            "scenes": s.scenes,
+            "statement": paragraphs(_statement(res, scenes, key=key)),
+            "scenes": scenes,
+            "wide": any(f["wide"] for f in scenes),
             "asked": [{"key": e.key, "description": e.description, "unit": e.unit,
                        "sign": e.sign_convention, "points": num(e.points, 4)} for e in entries],
         }
@@ -65,6 +70,7 @@ def build_context(asg: Assignment, student: Student, solved: list[Solved], *, ke
             p.update(_worked(res, entries, s.key_pictures))
         problems.append(p)
     total = sum(s.item.points for s in solved)
+    spelled = {a["unit"]: units.pretty(a["unit"]) for pr in problems for a in pr["asked"] if a["unit"]}
     return {
         "course": asg.course,
         "term": asg.term,
@@ -76,11 +82,69 @@ def build_context(asg: Assignment, student: Student, solved: list[Solved], *, ke
         "total_points": num(total, 4),
         "problems": problems,
         "key": key,
+        # units the sheet prints differently from how answers.csv spells them: N·m is typed N*m
+        "unit_spellings": [{"sheet": Typ(text(s)), "csv": u} for u, s in spelled.items() if s != u],
     }
 
 
 def _source(src: dict[str, str]) -> str:
     return ", ".join(v for v in (src.get("document", ""), src.get("ref", "")) if v)
+
+
+def _scenes(res: Result, pictures: tuple[Picture, ...], before: int) -> list[dict]:
+    """The sheet's figures of one problem, numbered after the *before* figures ahead of them.
+
+    A true-scale figure states the scale it is actually printed at (`printed_scale`: the
+    problem's scale, or 1:2, 1:5 ... when that would not fit a page). When one figure of the
+    problem needs a landscape page, all of them go there, so they stay in case order.
+    """
+    from gradekit.figures.assignment import printed_scale, ratio_text
+
+    cases = [c.name for c in res.cases] if len(res.cases) > 1 else [None]
+    wide = any(f.wide for f in pictures)
+    out = []
+    for i, f in enumerate(pictures):
+        scale = ""
+        if f.true_scale:
+            k = printed_scale(res, cases[i] if i < len(cases) else None)
+            scale = f"Drawn to scale {ratio_text(k)}: print at 100 % (no fit to page)." if k else f.scale_text
+        out.append({"path": f.path, "caption": f.caption, "true_scale": f.true_scale, "scale_text": scale,
+                    "scale": ratio_text(k) if f.true_scale and k else "", "wide": wide,
+                    "number": before + i + 1})
+    return out
+
+
+_FIGURE_WORDS = re.compile(r"\b[Tt]he figures?\b")
+
+
+def _statement(res: Result, scenes: list[dict], *, key: bool) -> str:
+    """The student's statement; "the figure(s)" becomes the sheet's own figure number(s).
+
+    A figure printed at a reduced scale is named with its scale in a closing sentence.
+    """
+    text = render_statement(res.problem, res.values)
+    if not scenes:
+        return text
+    nums = [f["number"] for f in scenes]
+    if len(nums) == 1:
+        ref = f"Figure {nums[0]}"
+    elif len(nums) == 2:
+        ref = f"Figures {nums[0]} and {nums[1]}"
+    else:
+        ref = f"Figures {nums[0]}–{nums[-1]}"
+    if key:
+        ref += " of the sheet"
+    text, n = _FIGURE_WORDS.subn(ref, text)
+    scales = list(dict.fromkeys(f["scale"] for f in scenes if f["scale"]))
+    if len(scales) == 1:
+        verb = "is" if len(nums) == 1 else "are"
+        text += f"\n\n{ref} {verb} drawn to scale {scales[0]} (print at 100 %, no fit to page)."
+    elif scales:
+        text += "\n\n" + "; ".join(f"Figure {f['number']} is drawn to scale {f['scale']}"
+                                     for f in scenes if f["scale"]) + " (print at 100 %, no fit to page)."
+    elif not n:
+        text += f"\n\nSee {ref}."
+    return text
 
 
 def _worked(res: Result, entries, key_pictures) -> dict:
@@ -93,7 +157,14 @@ def _worked(res: Result, entries, key_pictures) -> dict:
         given.append({"symbol": par.symbol or name, "description": par.description,
                       "value": quantity(value, par.unit, 6), "derived": bool(par.expr)})
     cases = [_case(res, c) for c in res.cases]
-    answers = [{"key": e.key, "description": e.description, "value": num(e.value, 5), "unit": e.unit,
+    scale: dict[str, float] = {}  # values below the answer's scale × 1e-12 are a zero's round-off
+    for e in entries:
+        scale[e.unit] = max(scale.get(e.unit, 0.0), abs(e.value))
+    for a in res.answers:
+        u = a.unit
+        scale[u] = max(scale.get(u, 0.0), abs(units.convert(a.scale, units.si_unit(u), u)))
+    answers = [{"key": e.key, "description": e.description,
+                "value": num(0.0 if abs(e.value) <= 1e-12 * scale[e.unit] else e.value, 5), "unit": e.unit,
                 "sign": e.sign_convention, "tolerance": e.tolerance.describe(), "points": num(e.points, 4)}
                for e in entries]
     return {
@@ -139,8 +210,14 @@ def _case(res: Result, case: CaseResult) -> dict:
     r = case.results
     dynamic = p.analysis == "dynamic"
 
+    biggest: dict[str, float] = {}
+    for v, u in r.values():
+        biggest[u] = max(biggest.get(u, 0.0), abs(v))
+
     def q(key: str, sig: int = 5) -> Typ:
         v, u = r[key]
+        if u != "deg" and abs(v) <= 1e-12 * biggest.get(u, 0.0):
+            v = 0.0  # round-off of a zero, not a value (no −0.0000000000000000069 N·m)
         return quantity(*_shown(p, v, u), sig)
 
     bodies = [b for b in link.bodies if b != GROUND]
@@ -165,7 +242,7 @@ def _case(res: Result, case: CaseResult) -> dict:
         else:
             a, b = j.a, j.b
         stem = f"F[{lab(a)},{lab(b)}]"
-        row = {"name": j.name, "symbol": Typ(f"$F_({_m(lab(a) + lab(b))})$"),
+        row = {"name": _joint_name(p, link, j), "symbol": Typ(f"$F_({_m(lab(a) + lab(b))})$"),
                "x": q(stem + ".x"), "y": q(stem + ".y"), "mag": q(stem + ".mag"), "angle": q(stem + ".angle")}
         if isinstance(j, Prismatic):
             row["couple"] = q(f"M[{lab(a)},{lab(b)}]")
@@ -191,6 +268,17 @@ def _case(res: Result, case: CaseResult) -> dict:
         "group_columns": [Typ(f"$F_({_m(_pair(lab, j))})$") for j in link.joints],
         "vw_driver": quantity(*_shown(p, sol.virtual_work_driver, r["driver"][1])),
     }
+
+
+def _point_at(link, pos) -> str:
+    """The internal name of the linkage point at *pos* ('' when none)."""
+    return next((n for n, pt in link.points.items() if np.allclose(pt.pos(), pos, atol=1e-12)), "")
+
+
+def _joint_name(p, link, j) -> str:
+    """A joint as the sheet names it: its point's printed name (O, B, C), a slider's 'slide at C'."""
+    name = p.point(_point_at(link, j.point.pos()) or j.name)
+    return f"slide at {name}" if isinstance(j, Prismatic) else name
 
 
 def row_stem(lab, j) -> str:
@@ -267,7 +355,7 @@ def _equations(res: Result, case: CaseResult) -> list[dict]:
         if body == GROUND:
             continue
         origin = link.bodies[body].origin.pos()
-        pname = next((n for n, pt in link.points.items() if np.allclose(pt.pos(), origin, atol=1e-12)), "")
+        pname = _point_at(link, origin)
         sx, vx, sy, vy, sm, vm = [], [], [], [], [], []
         for f in member.forces:
             stem, sub = _symbol(p, f, body, link)

@@ -378,6 +378,8 @@ def _concatenate(target: Path, parts: list[Path], title: str, author: str) -> No
 
     writer = pypdf.PdfWriter()
     for p in parts:
+        if len(writer.pages) % 2:  # every student's document starts on an odd page (duplex)
+            writer.add_blank_page()
         writer.append(str(p))
     writer.add_metadata({"/Title": title, "/Author": author})
     buf = io.BytesIO()

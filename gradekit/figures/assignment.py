@@ -88,8 +88,59 @@ def driver_key(result: Result) -> str:
     return "T"
 
 
+# Paper a true-scale drawing may use, in points (A4, the documents' 2 cm margins, less the SVG
+# margin and room for the caption): portrait, or a landscape page of its own.
+PORTRAIT = ((210 - 40) / 25.4 * 72 - 12.0, (297 - 42) / 25.4 * 72 - 70.0)
+LANDSCAPE = ((297 - 40) / 25.4 * 72 - 12.0, (210 - 42) / 25.4 * 72 - 70.0)
+PRINTABLE = (1.0, 0.5, 0.2, 0.1, 0.05, 0.02, 0.01)  # 1:1, 1:2, 1:5, 1:10, ...
+_SCALES: dict[tuple, float] = {}
+
+
+def printed_scale(result: Result, case: str | None = None) -> float | None:
+    """The scale a true-scale scene is printed at (paper length per mechanism length).
+
+    The problem's ``figure.true_scale`` when the drawing fits a portrait or a landscape page, else
+    the largest printable scale (1:2, 1:5, 1:10, ...) below it that fits. None without one.
+    """
+    k0 = result.problem.figure.true_scale
+    if not k0:
+        return None
+    k = _SCALES.get(_scale_key(result, case))
+    return k if k is not None else _fit_scale(result, case, k0)[0]
+
+
+def _scale_key(result: Result, case: str | None) -> tuple:
+    return (result.problem.id, result.problem.path, tuple(sorted(result.values.items())), case)
+
+
+def _fits(w: float, h: float) -> bool:
+    return any(w <= W and h <= H for W, H in (PORTRAIT, LANDSCAPE))
+
+
+def _fit_scale(result: Result, case: str | None, k0: float) -> tuple[float, Canvas]:
+    for k in (k0, *(r for r in PRINTABLE if r < k0 - 1e-12)):
+        cv = _build(result, case, k)
+        x0, y0, x1, y1 = cv.extent()
+        if _fits(x1 - x0, y1 - y0):
+            break
+    if len(_SCALES) > 512:
+        _SCALES.clear()
+    _SCALES[_scale_key(result, case)] = k
+    return k, cv
+
+
 def build_scene(result: Result, case: str | None = None, true_scale: bool = False) -> Canvas:
-    """The assignment scene of one case on a canvas (see `gradekit.figures.scene`)."""
+    """The assignment scene of one case on a canvas (see `gradekit.figures.scene`).
+
+    A true-scale scene is drawn at `printed_scale`, with the scale bar and the scale printed.
+    """
+    k0 = result.problem.figure.true_scale
+    if true_scale and k0:
+        return _fit_scale(result, case, k0)[1]
+    return _build(result, case, None)
+
+
+def _build(result: Result, case: str | None, k_paper: float | None) -> Canvas:
     pr = result.problem
     cr = pick_case(result, case)
     values = cr.values
@@ -98,7 +149,7 @@ def build_scene(result: Result, case: str | None = None, true_scale: bool = Fals
     show = set(pr.figure.show)
     lo, hi = mech_extent(link, [st.g for st in sol.states.values()])
     span = np.maximum(hi - lo, 1e-6)
-    k_paper = pr.figure.true_scale if (true_scale and pr.figure.true_scale) else None
+    true_scale = bool(k_paper)
     s = PT_PER_M * k_paper if k_paper else min(FIT[0] / span[0], FIT[1] / span[1], 6 * PT_PER_M)
     centre = (lo + hi) / 2
 
