@@ -33,6 +33,7 @@ class Item:
     points: float
     tolerance: dict | None = None  # fields given for every answer, e.g. {"rel": 0.05}
     tolerances: dict[str, dict] = dataclasses.field(default_factory=dict)  # per answer key
+    points_step: float | None = None  # answer points in multiples of this (default: 0.5, finer if needed)
 
 
 @dataclass(frozen=True)
@@ -70,7 +71,7 @@ def load_assignment(path: Path | str, bank: Path | str | None = None) -> Assignm
         node = []
     for i, it in enumerate(node):
         w = f"problems[{i}]"
-        m = c.mapping(it, w, ("id", "points"), ("label", "tolerance", "tolerances"), node, i)
+        m = c.mapping(it, w, ("id", "points"), ("label", "tolerance", "tolerances", "points_step"), node, i)
         if m is None:
             continue
         pid = m.get("id")
@@ -89,7 +90,8 @@ def load_assignment(path: Path | str, bank: Path | str | None = None) -> Assignm
         keys = {a.key for a in prob.answers}
         for k in c.mapping(tm, f"{w}.tolerances", (), tuple(sorted(keys)), m, "tolerances") or {}:
             per[k] = _override(c, tm[k], f"{w}.tolerances.{k}", tm)
-        items.append(Item(label, prob, pts, tol, per))
+        step = c.number(m, "points_step", f"{w}.points_step", 0.0, positive=True) if "points_step" in m else None
+        items.append(Item(label, prob, pts, tol, per, step or None))
     redraws: dict[str, dict[str, int]] = {}
     rd = data.get("redraws", {})
     for sid in (
@@ -141,10 +143,10 @@ def student_variant(asg: Assignment, item: Item, student_id: str, redraw: int = 
 def keys_for(asg: Assignment, item: Item, student_id: str, v: Variant, with_mistakes: bool = True) -> list[KeyEntry]:
     """The key entries of one item for one student; points of the item shared by answer points."""
     answers = v.result.answers
-    weight = sum(a.points for a in answers) or 1.0
+    shares = split_points(item.points, [a.points for a in answers], item.points_step)
     mistakes = catalogued_mistakes(v) if with_mistakes else {}
     out = []
-    for a in answers:
+    for i, a in enumerate(answers):
         override = item.tolerances.get(a.base_key) or item.tolerance
         if override:  # the instructor's fields over the answer's own (measured) tolerance
             spec = next(s for s in item.problem.answers if s.key == a.base_key)
@@ -159,13 +161,45 @@ def keys_for(asg: Assignment, item: Item, student_id: str, v: Variant, with_mist
                 float(a.value),
                 a.unit,
                 tol,
-                round(item.points * a.points / weight, 6),
+                shares[i],
                 a.description,
                 a.sign,
                 tuple(m for m in mistakes.get(a.key, ()) if not tol.accepts(m.value, a.value)),
             )
         )
     return out
+
+
+STEPS = (0.5, 0.25, 0.1, 0.05, 0.01)  # readable answer points, coarsest first
+
+
+def split_points(total: float, weights: list[float], step: float | None = None) -> list[float]:
+    """*total* points shared among answers in proportion to *weights*, in whole multiples of a step.
+
+    The step is *step* when the assignment states one, else the coarsest of 0.5, 0.25, 0.1, ...
+    that divides *total* and gives every answer at least one step. Shares are rounded by the
+    largest remainder, so they add up to *total* exactly (10 points over 9 answers: 1 and 1.5,
+    never 1.111).
+    """
+    n = len(weights)
+    if n == 0:
+        return []
+    weight = sum(weights) or float(n)
+    weights = [w if sum(weights) else 1.0 for w in weights]
+    candidates = (step,) if step else STEPS
+    for st in candidates:
+        units = total / st
+        if abs(units - round(units)) < 1e-9 and (round(units) >= n or st == candidates[-1]):
+            break
+    else:
+        return [round(total * w / weight, 6) for w in weights]
+    units = round(total / st)
+    exact = [units * w / weight for w in weights]
+    base = [int(e + 1e-9) for e in exact]
+    order = sorted(range(n), key=lambda i: (-(exact[i] - base[i]), i))
+    for i in order[: units - sum(base)]:
+        base[i] += 1
+    return [float(round(b * st, 6)) for b in base]
 
 
 def manifest(asg: Assignment, students: list[str], seeds: dict[str, dict[str, int]]) -> dict:
