@@ -143,7 +143,7 @@ def test_sign_flip_is_diagnosed(batch) -> None:
     assert "sign flipped: the sign is reversed (convention: counter\\-clockwise positive)" in text.replace(
         "counter-clockwise", "counter\\-clockwise"
     )
-    assert "| p1.T |" in text and "| wrong | 200 % |" in text
+    assert "| p1.T |" in text and "| wrong | too low, outside the tolerance |" in text and "200 %" not in text
 
 
 def test_messages_name_file_row_and_column(batch) -> None:

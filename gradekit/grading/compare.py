@@ -62,6 +62,12 @@ class AnswerResult:
     abs_error: float | None
     diagnosis: Mistake | None = None
     message: str = ""
+    error: float | None = None  # answer − key in the key's unit, wrapped at 360° for an angle
+
+    @property
+    def angle(self) -> bool:
+        """True for an angle: its error is in degrees (wrapped), never a percentage."""
+        return is_angle(self.entry)
 
 
 @dataclass(frozen=True)
@@ -97,6 +103,12 @@ class StudentGrade:
     def percent(self) -> float:
         """Total as a percentage of the maximum (0 when nothing was available)."""
         return 100.0 * self.total / self.max_points if self.max_points else 0.0
+
+
+def is_angle(entry: KeyEntry) -> bool:
+    """An answer in degrees or radians, or one whose tolerance wraps."""
+    unit = entry.unit.replace(" ", "").lower()
+    return bool(entry.tolerance.period) or unit in ("deg", "degree", "degrees", "°", "rad", "radian", "radians")
 
 
 def diagnose(entry: KeyEntry, value: float) -> Mistake | None:
@@ -135,11 +147,15 @@ def compare(entry: KeyEntry, answer: Answer | None) -> AnswerResult:
         except GradekitError as exc:
             return AnswerResult(entry, answer, None, False, 0.0, None, None, message=exc.detail)
     correct = entry.tolerance.accepts(value, entry.value)
-    abs_error = abs(value - entry.value)
-    rel_error = abs_error / abs(entry.value) if entry.value else None
+    error = entry.tolerance.difference(value, entry.value)
+    if is_angle(entry) and not entry.tolerance.period:
+        period = 360.0 if entry.unit.replace(" ", "").lower() in ("deg", "degree", "degrees", "°") else 2 * math.pi
+        error = (error + period / 2) % period - period / 2
+    abs_error = abs(error)
+    rel_error = abs_error / abs(entry.value) if entry.value and not is_angle(entry) else None
     diagnosis = None if correct else diagnose(entry, value)
     points = entry.points if correct else 0.0
-    return AnswerResult(entry, answer, value, correct, points, rel_error, abs_error, diagnosis)
+    return AnswerResult(entry, answer, value, correct, points, rel_error, abs_error, diagnosis, error=error)
 
 
 def grade_student(
@@ -161,6 +177,8 @@ def grade_student(
     answers = {a.key: a for a in submission.answers} if submission else {}
     issues = list(submission.issues) if submission else []
     results = []
+    missing: list[str] = []
+    unread: dict[tuple, list[int | None]] = {}  # (field, message) -> lines, so one cause is one message
     for entry in entries:
         result = compare(entry, answers.get(entry.key))
         results.append(result)
@@ -168,11 +186,22 @@ def grade_student(
             continue
         answer = result.answer
         if answer is None:
-            issues.append(
-                Issue(submission.path, None, "key", f"expected an answer for {entry.key!r}, got none")
-            )
+            missing.append(entry.key)
         elif result.value is None:
-            issues.append(Issue(submission.path, answer.line, answer.field, result.message))
+            unread.setdefault((answer.field, result.message), []).append(answer.line)
+    if submission is not None and submission.readable:
+        for (fld, message), lines in unread.items():
+            if len(lines) > 1:
+                shown = sorted(x for x in lines if x is not None)
+                where = f" (lines {shown[0]}–{shown[-1]})" if shown else ""
+                message = f"{message}, in {len(lines)} rows{where}"
+            issues.append(Issue(submission.path, lines[0] if len(lines) == 1 else None, fld, message))
+        if len(missing) == 1:
+            issues.append(Issue(submission.path, None, "key", f"expected an answer for {missing[0]!r}, got none"))
+        elif missing:
+            listed = ", ".join(missing[:5]) + (", …" if len(missing) > 5 else "")
+            issues.append(Issue(submission.path, None, "key",
+                                f"expected answers for {len(missing)} keys ({listed}), got none"))
     if submission is not None:
         own = {e.key for e in entries}
         for answer in submission.answers:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import hashlib
 import html
+import math
 import re
 import statistics
 from collections import Counter
@@ -69,7 +70,7 @@ def write_grades(
         rows.append(
             [
                 g.student.student_id,
-                g.student.name,
+                one_line(g.student.name),
                 *(points(earned.get(p, 0.0)) for p in problems),
                 points(g.total),
                 points(g.max_points),
@@ -89,18 +90,27 @@ def write_canvas(path: Path, grades: Sequence[StudentGrade], assignment_title: s
     rows = [
         [
             _last_first(g.student.name),
-            g.student.lms_id,
-            g.student.student_id,
-            g.student.sis_login,
-            g.student.section,
+            one_line(g.student.lms_id),
+            one_line(g.student.student_id),
+            one_line(g.student.sis_login),
+            one_line(g.student.section),
             points(g.total),
         ]
         for g in grades
     ]
-    write_csv(path, header, rows)
+    write_csv(path, [one_line(h) for h in header], rows)
+
+
+_CONTROL = re.compile(r"[\x00-\x1f\x7f-\x9f\u2028\u2029]+")
+
+
+def one_line(text: str) -> str:
+    """*text* as one line for an LMS cell: newlines, tabs and control characters become one space."""
+    return " ".join(_CONTROL.sub(" ", str(text)).split())
 
 
 def _last_first(name: str) -> str:
+    name = one_line(name)
     first, _, last = name.rpartition(" ")
     return f"{last}, {first}" if first else name
 
@@ -111,8 +121,8 @@ def write_moodle(path: Path, grades: Sequence[StudentGrade], assignment_title: s
     Map ``ID number`` to "ID number" (or ``Email address`` to "Email address") and the title
     column to the grade item in Moodle's import dialog; the grade is the points total.
     """
-    header = ["ID number", "Email address", assignment_title]
-    rows = [[g.student.student_id, g.student.email, points(g.total)] for g in grades]
+    header = ["ID number", "Email address", one_line(assignment_title)]
+    rows = [[one_line(g.student.student_id), one_line(g.student.email), points(g.total)] for g in grades]
     write_csv(path, header, rows)
 
 
@@ -135,12 +145,7 @@ def _answer_lines(r: AnswerResult, reveal: bool) -> dict[str, str]:
         verdict = "not graded"
     else:
         verdict = "wrong"
-    if r.rel_error is not None:
-        off = f"{100 * r.rel_error:.3g} %"
-    elif r.abs_error is not None:
-        off = f"{fmt(r.abs_error)} {unit}"
-    else:
-        off = ""
+    off = _off(r, unit, reveal)
     diagnosis = f"{r.diagnosis.name}: {r.diagnosis.description}" if r.diagnosis else ""
     return {
         "key": r.entry.key,
@@ -152,6 +157,29 @@ def _answer_lines(r: AnswerResult, reveal: bool) -> dict[str, str]:
         "points": f"{fmt(r.points)}/{fmt(r.entry.points)}",
         "correct": f"{fmt(r.entry.value, 6)} {unit} ({r.entry.tolerance.describe()})" if reveal else "",
     }
+
+
+def _off(r: AnswerResult, unit: str, reveal: bool) -> str:
+    """How far off a wrong answer is, without handing a student their key unless *reveal*.
+
+    An angle's difference is in degrees, wrapped at 360° (never a percentage of the angle).
+    Without *reveal*: only the direction ("too high") and that it is outside the tolerance;
+    a signed amount would let the student back out the key value.
+    """
+    if r.error is None or r.abs_error is None or r.correct:
+        return ""
+    degrees = r.angle and unit in ("rad",)
+    amount = r.abs_error * (180.0 / math.pi if degrees else 1.0)
+    if not reveal:
+        if r.angle:
+            way = "counterclockwise" if r.error > 0 else "clockwise"
+            return f"too far {way}, outside the tolerance"
+        return f"too {'high' if r.error > 0 else 'low'}, outside the tolerance"
+    if r.angle:
+        return f"{fmt(amount, 3)}° {'counterclockwise' if r.error > 0 else 'clockwise'} (wrapped at 360°)"
+    if r.rel_error is not None:
+        return f"{'+' if r.error > 0 else '−'}{100 * r.rel_error:.3g} %"
+    return f"{'+' if r.error > 0 else '−'}{fmt(r.abs_error)} {unit}"
 
 
 _COLUMNS = [
@@ -261,7 +289,8 @@ def write_histogram(path: Path, percents: Sequence[float], title: str) -> None:
     fig = Figure(figsize=(6, 3.5))
     FigureCanvasAgg(fig)
     ax = fig.add_subplot()
-    ax.hist(list(percents), bins=[10.0 * i for i in range(11)], edgecolor="black")
+    # 100.00000000000001 % is a perfect score: clamp round-off into the last bin (its edge is closed)
+    ax.hist([min(max(p, 0.0), 100.0) for p in percents], bins=[10.0 * i for i in range(11)], edgecolor="black")
     ax.set_xlabel("score (%)")
     ax.set_ylabel("students")
     ax.set_title(title)
