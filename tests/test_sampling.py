@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import pytest
 
 from gradekit.bank.schema import load_problem
@@ -24,7 +26,12 @@ def test_pinned_values_of_one_known_student():
     p = load_problem(EX51)
     v = variant(p, course="MEG373", salt="hw5", student="s001")
     assert v.values == {"r": 33.0, "l": 105.0, "phi": 65.0, "P": 45.0}
-    assert [round(a.value, 4) for a in v.result.answers] == [13.3717, 46.9447, -1.5324]
+    # its answers from the closed form (sin β = r·sin φ / l): F03 = P·tan β, F23 = P/cos β,
+    # T = -P·r·sin(φ+β)/cos β in N·m
+    beta = math.asin(33.0 * math.sin(math.radians(65)) / 105.0)
+    exact = {"F03": 45 * math.tan(beta), "F23": 45 / math.cos(beta),
+             "T": -45 * 0.033 * math.sin(math.radians(65) + beta) / math.cos(beta)}
+    assert {a.key: a.value for a in v.result.answers} == pytest.approx(exact, rel=1e-12)
 
 
 def test_values_are_rounded_as_printed_and_inside_ranges():

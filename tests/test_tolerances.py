@@ -52,20 +52,24 @@ def test_answer_kinds():
 
 
 def test_measured_defaults_apply_and_explicit_tolerances_win(tmp_path):
-    bank = load_bank()
-    p = bank["ch5-ex5-1"]
-    t = {a.key: a.tolerance for a in p.answers}
-    assert (t["F23"].rel, t["F23"].floor) == (0.015, 0.0)  # from problem_bank/_tolerances.yaml
-    text = open(EX51, encoding="utf-8").read().replace(
+    text = open(EX51, encoding="utf-8").read()
+    measured = tmp_path / "measured"
+    measured.mkdir()
+    (measured / "ex51.yaml").write_text(text, encoding="utf-8")
+    (measured / "_tolerances.yaml").write_text(
+        "ch5-ex5-1:\n  F23: {rel: 0.0123, floor: 0.004, fr: 0.0, det: 100.0}\n", encoding="utf-8"
+    )
+    t = {a.key: a.tolerance for a in load_problem(measured / "ex51.yaml").answers}
+    assert (t["F23"].rel, t["F23"].floor) == (0.0123, 0.004)  # the row beside the file
+    assert t["T"] == DEFAULTS[("graphical", "torque")]  # no row: the per-kind default
+    explicit = text.replace(
         'description: "connecting rod force at the piston pin C, magnitude"}',
         'description: "connecting rod force at the piston pin C, magnitude", tolerance: {rel: 0.002}}',
     )
-    f = tmp_path / "x.yaml"  # no _tolerances.yaml beside it: per-kind defaults
-    f.write_text(text, encoding="utf-8")
-    q = load_problem(f)
-    tq = {a.key: a.tolerance for a in q.answers}
-    assert tq["F23"].rel == 0.002 and tq["F23"].floor == DEFAULTS[("graphical", "force")].floor
-    assert tq["T"] == DEFAULTS[("graphical", "torque")]
+    assert explicit != text
+    (measured / "explicit.yaml").write_text(explicit, encoding="utf-8")
+    tq = {a.key: a.tolerance for a in load_problem(measured / "explicit.yaml").answers}
+    assert tq["F23"].rel == 0.002 and tq["F23"].floor == DEFAULTS[("graphical", "force")].floor  # explicit wins
 
 
 def test_every_angle_answer_of_the_bank_wraps():
