@@ -6,7 +6,10 @@ import math
 
 import numpy as np
 
-from gradekit.errors import GeometryError
+try:
+    from gradekit.mechanics.errors import GeometryError
+except ImportError:  # before the numeric core had its own errors
+    from gradekit.errors import GeometryError
 from gradekit.mechanics.mechanisms import KINDS, Motion, build
 from gradekit.mechanics.model import Analysis, Load, MassProps
 
