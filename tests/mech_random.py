@@ -1,4 +1,4 @@
-"""Random assemblable mechanisms of every kind, for the fuzz-style tests and the benchmarks."""
+"""Random assemblable mechanisms of every kind, for the fuzz-style tests (test-only)."""
 
 from __future__ import annotations
 
