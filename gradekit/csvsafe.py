@@ -1,4 +1,4 @@
-"""CSV in and out without surprises: injection-safe cells, atomic writes, forgiving decoding."""
+"""CSV in and out without surprises: injection-safe cells, atomic writes and output folders, forgiving decoding."""
 
 from __future__ import annotations
 
@@ -6,7 +6,11 @@ import codecs
 import csv
 import io
 import os
+import re
+import shutil
+import signal
 import tempfile
+import threading
 from collections.abc import Iterable, Sequence
 from numbers import Number
 from pathlib import Path
@@ -15,12 +19,19 @@ from pathlib import Path
 _FORMULA_START = ("=", "+", "-", "@", "\t", "\r")
 
 
+# Text that a spreadsheet reads as a plain number: it computes nothing, so it needs no guard, and an
+# id such as "-1007" or "+2519" then reads back the same everywhere (grader, Canvas, Moodle).
+_PLAIN_NUMBER = re.compile(r"[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?")
+
+
 def safe_cell(value: object) -> str | int | float:
     """A cell value that a spreadsheet will never run as a formula.
 
     Text starting with ``=``, ``+``, ``-``, ``@``, a tab or a carriage return gets a leading
-    ``'``; numbers (int, float, also numpy scalars) are returned unchanged, so a negative number
-    written as a number stays a number; ``None`` becomes an empty cell.
+    ``'`` (which `unguard` removes again when gradekit reads the cell back), unless it is a plain
+    signed number such as ``-1007``; numbers (int, float, also numpy scalars) are returned
+    unchanged, so a negative number written as a number stays a number; ``None`` becomes an
+    empty cell.
 
     Args:
         value: the cell value.
@@ -33,9 +44,16 @@ def safe_cell(value: object) -> str | int | float:
     if isinstance(value, Number) and not isinstance(value, complex):
         return value  # type: ignore[return-value]
     text = str(value)
-    if text.startswith(_FORMULA_START):
+    if text.startswith(_FORMULA_START) and not _PLAIN_NUMBER.fullmatch(text):
         return "'" + text
     return text
+
+
+def unguard(cell: str) -> str:
+    """The text `safe_cell` guarded: ``'=x`` -> ``=x``; any other cell as it is."""
+    if cell.startswith("'") and cell[1:].startswith(_FORMULA_START):
+        return cell[1:]
+    return cell
 
 
 def atomic_write(path: Path, data: str | bytes, *, encoding: str = "utf-8") -> None:
@@ -98,8 +116,8 @@ _BOMS = (
 def decode_bytes(data: bytes) -> tuple[str, str]:
     """Decode a text file as spreadsheets and LMSs write them; never raises.
 
-    A BOM decides (UTF-8, UTF-16, UTF-32); otherwise strict UTF-8, then UTF-16 when every other
-    byte is NUL (a BOM-less export), then cp1252, then latin-1 (which accepts every byte).
+    A BOM decides (UTF-8, UTF-16, UTF-32); otherwise UTF-16 when nearly every other byte is NUL
+    (a BOM-less export), then strict UTF-8, then cp1252, then latin-1 (which accepts every byte).
 
     Args:
         data: the file's bytes.
@@ -110,20 +128,36 @@ def decode_bytes(data: bytes) -> tuple[str, str]:
     for bom, name in _BOMS:
         if data.startswith(bom):
             return data[len(bom) :].decode(name, errors="replace"), name
+    utf16 = _utf16(data)
+    if utf16:
+        return data.decode(utf16, errors="replace"), utf16
     try:
         return data.decode("utf-8"), "utf-8"
     except UnicodeDecodeError:
         pass
-    sample = data[:4096]
-    if len(sample) >= 4 and len(sample) % 2 == 0:
-        if sample[1::2].count(0) == len(sample) // 2 and sample[0::2].count(0) == 0:
-            return data.decode("utf-16-le", errors="replace"), "utf-16-le"
-        if sample[0::2].count(0) == len(sample) // 2 and sample[1::2].count(0) == 0:
-            return data.decode("utf-16-be", errors="replace"), "utf-16-be"
     try:
         return data.decode("cp1252"), "cp1252"
     except UnicodeDecodeError:
         return data.decode("latin-1"), "latin-1"
+
+
+def _utf16(data: bytes) -> str | None:
+    """``utf-16-le``/``-be`` for BOM-less UTF-16 text (checked before UTF-8, which NULs also satisfy).
+
+    Text of a CSV is mostly ASCII, so in UTF-16 nearly every other byte is NUL (and the others
+    hardly ever are); a few non-Latin characters (names) do not spoil the pattern.
+    """
+    sample = data[:4096]
+    half = len(sample) // 2
+    if half < 2:
+        return None
+    sample = sample[: 2 * half]
+    odd, even = sample[1::2].count(0), sample[0::2].count(0)
+    if odd >= 0.7 * half and even <= 0.05 * half:
+        return "utf-16-le"
+    if even >= 0.7 * half and odd <= 0.05 * half:
+        return "utf-16-be"
+    return None
 
 
 def sniff_delimiter(text: str) -> str:
@@ -140,3 +174,101 @@ def sniff_delimiter(text: str) -> str:
     counts = {d: first.count(d) for d in (",", ";", "\t")}
     best = max(counts, key=lambda d: (counts[d], d == ","))
     return best if counts[best] else ","
+
+
+class StagedFolder:
+    """A run's outputs built in a hidden folder beside OUT and moved into OUT only when complete.
+
+    Use as ``with StagedFolder(out, ".gradekit-output") as stage: write below stage.root; then
+    stage.commit()``. An exception or Ctrl-C before `commit` removes the staging folder and leaves
+    OUT exactly as the previous run left it. `commit` moves every file in with Ctrl-C held back
+    (POSIX), writes the list of files it owns to OUT/*listing*, and deletes the files the previous
+    run listed that this run did not write (e.g. the feedback of a student no longer on the
+    roster); files it never listed (a user's own) are never touched. Should the commit itself be
+    cut short (power loss), ``OUT/INCOMPLETE.txt`` says so until a later run completes.
+    """
+
+    INCOMPLETE = "INCOMPLETE.txt"
+
+    def __init__(self, out: Path, listing: str, *, merge: bool = False) -> None:
+        self.out = Path(out)
+        self.listing = listing
+        self.merge = merge  # keep the previous run's files (a partial re-run)
+        self.out.parent.mkdir(parents=True, exist_ok=True)
+        self.root = Path(tempfile.mkdtemp(prefix=f".{self.out.name}.partial-", dir=self.out.parent))
+
+    def __enter__(self) -> StagedFolder:
+        return self
+
+    def __exit__(self, exc_type, exc, tb) -> None:
+        shutil.rmtree(self.root, ignore_errors=True)
+
+    def previous(self) -> list[str]:
+        """The relative paths the previous run listed (empty when there is no listing)."""
+        try:
+            text = (self.out / self.listing).read_text(encoding="utf-8")
+        except (OSError, UnicodeDecodeError):
+            return []
+        return [ln for ln in text.splitlines()[1:] if ln and not ln.startswith("#")]
+
+    def commit(self, header: str, extra_previous: Sequence[str] = (), retain: Sequence[str] = ()) -> list[Path]:
+        """Move every staged file into OUT; return their final paths (see the class docstring).
+
+        Args:
+            header: the listing's first line (what wrote the folder).
+            extra_previous: relative paths to treat as the previous run's even when unlisted
+                (outputs of a version of gradekit that wrote no listing).
+            retain: prefixes of the previous run's paths to keep even though this run did not
+                write them (outputs this run was asked to leave alone).
+        """
+        staged = sorted(
+            p.relative_to(self.root).as_posix() for p in self.root.rglob("*") if p.is_file() and not p.is_symlink()
+        )
+        old = list(dict.fromkeys([*self.previous(), *extra_previous]))
+        with _SigintHeld():
+            self.out.mkdir(parents=True, exist_ok=True)
+            note = "gradekit was interrupted while writing this folder: its files may mix two runs. Run it again.\n"
+            atomic_write(self.out / self.INCOMPLETE, note)
+            for rel in staged:
+                target = self.out / rel
+                target.parent.mkdir(parents=True, exist_ok=True)
+                os.replace(self.root / rel, target)
+            keep = set(staged)
+            kept = tuple(retain) if not self.merge else ("",)
+            keep |= {rel for rel in old if rel.startswith(kept) and (self.out / rel).is_file()}
+            for rel in old:
+                if rel not in keep and _inside(self.out, rel) and (self.out / rel).is_file():
+                    (self.out / rel).unlink()
+                    _remove_empty(self.out, Path(rel).parent)
+            listing = "\n".join([header, *sorted(keep)]) + "\n"
+            atomic_write(self.out / self.listing, listing)
+            (self.out / self.INCOMPLETE).unlink()
+        return [self.out / rel for rel in staged]
+
+
+def _remove_empty(folder: Path, rel: Path) -> None:
+    """Remove *folder*/*rel* and its parents below *folder* while they are empty."""
+    while rel.parts:
+        try:
+            (folder / rel).rmdir()
+        except OSError:
+            return
+        rel = rel.parent
+
+
+def _inside(folder: Path, rel: str) -> bool:
+    return not Path(rel).is_absolute() and ".." not in Path(rel).parts and not os.path.islink(folder / rel)
+
+
+class _SigintHeld:
+    """Hold SIGINT back (delivered on exit) on the main thread of a POSIX process; else nothing."""
+
+    def __enter__(self) -> None:
+        self.held = False
+        if hasattr(signal, "pthread_sigmask") and threading.current_thread() is threading.main_thread():
+            signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+            self.held = True
+
+    def __exit__(self, *exc) -> None:
+        if self.held:
+            signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})

@@ -9,7 +9,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
-from gradekit.csvsafe import decode_bytes, sniff_delimiter
+from gradekit.csvsafe import decode_bytes, sniff_delimiter, unguard
 from gradekit.errors import ErrorList, GradekitError
 
 
@@ -57,9 +57,10 @@ def _find(header: list[str], names: tuple[str, ...]) -> int | None:
 
 
 def _cell(row: list[str], index: int | None) -> str:
+    """A roster cell, with the formula guard (``'=…``) of a spreadsheet-safe export removed."""
     if index is None or index >= len(row):
         return ""
-    return row[index].strip()
+    return unguard(row[index].strip())
 
 
 def _first_last(name: str) -> str:

@@ -17,7 +17,15 @@ _REG = None
 # Spellings pint does not read as meant here. In a force-analysis course "lb" on a force, a weight
 # or a torque means pound-force; pint reads "lb" as pound-mass, so a unit whose dimension does not
 # match is retried with lb read as lbf (see `factor`).
+MAX_LENGTH = 40  # characters of a unit string: "lbf*in/s**2" is 11; pint's parser is not linear
+
 _SUBS = [
+    (re.compile(r"(?<=\w)\.$"), ""),  # "Nm." at the end of a sentence
+    (re.compile(r"(?<![A-Za-z])K(?=N)"), "k"),  # KN, KNm: kilo is a small k
+    (re.compile(r"(?<![A-Za-z])([kMm]?)N(mm|cm|m|M)(?![A-Za-z])"), r"\1N*\2"),  # Nm, kNm, Nmm, NM
+    (re.compile(r"(?<=N\*)M(?![A-Za-z])"), "m"),
+    (re.compile(r"(?<![A-Za-z])(lbf|lbs|lb|ozf|oz|kips?)-?(in|ft)(?![A-Za-z])"), r"\1*\2"),  # lbin, lbft
+    (re.compile(r"(?<![A-Za-z])(in|ft)-?(lbf|lbs|lb|ozf|oz|kips?)(?![A-Za-z])"), r"\1*\2"),  # inlb, ftlb
     (re.compile(r"[·⋅•×]"), "*"),
     (re.compile(r"²"), "**2"),
     (re.compile(r"³"), "**3"),
@@ -50,16 +58,18 @@ def normalise(unit: str) -> str:
 
 
 def _lbf(text: str) -> str:
-    return re.sub(r"\blbs?\b", "lbf", text)
+    return re.sub(r"\boz\b", "ozf", re.sub(r"\blbs?\b", "lbf", text))
 
 
 @lru_cache(maxsize=4096)
 def _parse(text: str):
+    if len(text) > MAX_LENGTH:
+        raise GradekitError(f"expected a unit of at most {MAX_LENGTH} characters, got {len(text):,}")
     reg = registry()
     try:
         return reg.parse_units(normalise(text)) if text.strip() else reg.dimensionless
-    except Exception as exc:  # pint raises several unrelated types for bad input
-        raise GradekitError(f"expected a unit such as N, N*mm, lbf*in or rad/s**2, got {text!r}") from exc
+    except Exception:  # pint raises several unrelated types for bad input
+        raise GradekitError(f"expected a unit such as N, N*mm, lbf*in or rad/s**2, got {text!r}") from None
 
 
 def check(unit: str) -> None:

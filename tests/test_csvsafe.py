@@ -16,7 +16,7 @@ from gradekit.csvsafe import decode_bytes, safe_cell, sniff_delimiter, write_csv
     [
         ('=HYPERLINK("http://evil.example","click")', '\'=HYPERLINK("http://evil.example","click")'),
         ("-2+3", "'-2+3"),
-        ("+1", "'+1"),
+        ("+1", "+1"),  # a plain number runs nothing: kept, so ids such as +1001 round-trip
         ("@SUM(A1:A9)", "'@SUM(A1:A9)"),
         ("\t=1", "'\t=1"),
         ("\r=1", "'\r=1"),

@@ -99,8 +99,8 @@ def test_every_problem_is_named_with_file_row_and_column(tmp_path: Path) -> None
         "sub/x.csv:4: key: expected each key once, got 'p1.T' again (first on line 2; this row is ignored)",
         "sub/x.csv:6: row: expected 4 cells, got 5 (a decimal comma? write 1.12, or use ';' between columns)",
         "sub/x.csv:2: value: expected a number, got 'abc'",
-        "sub/x.csv: key: expected an answer for 'p1.F', got none",
         "sub/x.csv:7: unit: expected a unit of the same kind as 'rad', got 'kg'",
+        "sub/x.csv: key: expected an answer for 'p1.F', got none",
     ]
     assert grade.total == 0
 
@@ -112,11 +112,14 @@ def test_lms_renamed_file_without_id_column(tmp_path: Path) -> None:
 
 def test_excel_mangled_id_and_name_mismatch(tmp_path: Path) -> None:
     [sub] = read(tmp_path, "123_answers.csv", b"student_id,key,value,unit\n456,p1.T,1,N*m\n")
-    assert sub.student_id == "0456"  # lost leading zero still matches, the column wins
+    assert sub.student_id == "123"  # the file name wins: the file is 123's, never 0456's
+    assert sub.conflicts == ("0456",)  # lost leading zero still matches the roster
     assert [str(i) for i in sub.issues] == [
-        "123_answers.csv: student_id: the file name names student '123' but the student_id column "
-        "says '0456'; graded as '0456'"
+        "123_answers.csv: student_id: expected '123' (the file name's student), got rows for '0456'; "
+        "graded as '123' only, and never as '0456'"
     ]
+    [sub] = read(tmp_path, "answers.csv", b"student_id,key,value,unit\n456,p1.T,1,N*m\n")
+    assert (sub.student_id, sub.conflicts, sub.issues) == ("0456", (), ())  # no name: the column decides
 
 
 def test_headerless_rows_and_wide_class_file(tmp_path: Path) -> None:

@@ -22,7 +22,7 @@ from gradekit.assignment import (
     seeds_of,
     student_variant,
 )
-from gradekit.csvsafe import atomic_write, write_csv
+from gradekit.csvsafe import StagedFolder, atomic_write, write_csv
 from gradekit.documents import typeset
 from gradekit.documents.context import Picture, Solved, build_context
 from gradekit.errors import GradekitError
@@ -103,17 +103,22 @@ def generate(
     if student is not None and student not in by_id:
         raise GradekitError(f"expected a student id of the roster, got {student!r}", path=str(roster))
     names = safe_names(by_id)
-    out = Path(out)
+    final = Path(out)
+    if final.exists() and not final.is_dir():
+        raise GradekitError("expected an output folder, got a file", path=str(final))
     chosen = [by_id[student]] if student is not None else students
+    # Everything is built beside OUT and moved in when complete: Ctrl-C leaves OUT as it was.
+    stage = StagedFolder(final, LISTING, merge=student is not None)
+    out = stage.root
     for sub in ("students", "keys", BUILD) if keys else ("students", BUILD):
         (out / sub).mkdir(parents=True, exist_ok=True)
     # The same variants grading recomputes: explicit re-draws plus the class de-duplication.
     redraws = class_redraws(asg, [s.student_id for s in students])
     job = _Job(str(Path(assignment)), str(out), keys, redraws)
-    summary = GenerateSummary(out, len(chosen))
+    summary = GenerateSummary(final, len(chosen))
     done: dict[str, _Done] = {}
     work = [(s, names[s.student_id]) for s in chosen]
-    try:
+    with stage:
         with _bar(len(work), progress) as bar:
             if jobs <= 1 or len(work) <= 1:
                 _init(job, asg)
@@ -138,8 +143,13 @@ def generate(
         seeds = {s.student_id: seeds_of(asg, s.student_id, redraws[s.student_id]) for s in students}
         data = manifest(asg, [s.student_id for s in students], seeds)
         atomic_write(out / "manifest.json", json.dumps(data, indent=2, ensure_ascii=False) + "\n")
-    finally:
         shutil.rmtree(out / BUILD, ignore_errors=True)
+        stage.commit(
+            "gradekit generate output; files listed here are rewritten by the next run, others are left alone",
+            extra_previous=() if stage.previous() else _unlisted_outputs(final),
+            retain=() if keys else ("keys/", "keys.pdf"),
+        )
+    out = final
     for s in chosen:
         summary.assignments.append(out / "students" / names[s.student_id] / "assignment.pdf")
         if keys:
@@ -149,6 +159,20 @@ def generate(
         summary.combined = [out / "assignments.pdf"] + ([out / "keys.pdf"] if keys else [])
     summary.seconds = time.perf_counter() - t0
     return summary
+
+
+LISTING = ".gradekit-generate"  # the files the last run wrote (the next full run removes those it does not rewrite)
+
+
+def _unlisted_outputs(out: Path) -> list[str]:
+    """What an older gradekit (no listing) wrote into OUT: taken as its outputs when manifest.json is there."""
+    if not (out / "manifest.json").is_file():
+        return []
+    found = ["key.csv", "manifest.json", "assignments.pdf", "keys.pdf"]
+    sheets = ("assignment.pdf", "answers.csv")
+    found += [f"students/{p.parent.name}/{p.name}" for p in out.glob("students/*/*") if p.name in sheets]
+    found += [f"keys/{p.name}" for p in out.glob("keys/*.pdf")]
+    return sorted(found)
 
 
 class _NoBar:

@@ -7,9 +7,11 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
+from gradekit.csvsafe import StagedFolder
 from gradekit.errors import GradekitError
 from gradekit.grading.compare import StudentGrade, grade_student
 from gradekit.grading.exports import (
+    _md_cell,
     feedback_html,
     feedback_markdown,
     report_markdown,
@@ -21,7 +23,7 @@ from gradekit.grading.exports import (
     write_text,
 )
 from gradekit.grading.integrity import IntegrityFlag, find_copies
-from gradekit.grading.reader import IdIndex, KeyIndex, Submission, read_file
+from gradekit.grading.reader import IdIndex, KeyIndex, Submission, read_file, special_kind
 from gradekit.keys import KeyEntry
 from gradekit.roster import Student
 
@@ -33,7 +35,8 @@ class FileRecord:
     """What became of one file of the submissions folder.
 
     ``status`` is one of ``graded``, ``unreadable``, ``unknown student``, ``duplicate`` (another
-    file of the same student was graded) or ``ignored`` (hidden and system files).
+    file of the same student was graded), ``ignored`` (hidden and system files) or ``skipped``
+    (symbolic links, FIFOs, devices and sockets: reported, never opened).
     """
 
     path: str
@@ -89,8 +92,28 @@ class BatchResult:
         )
 
 
+@dataclass(frozen=True)
+class IdConflict(IntegrityFlag):
+    """A file whose name points to one student (``student_id``) while its id column names another
+    (``other_id``): graded as the first only; ``own_matches``/``other_matches`` count its answers
+    within tolerance of each one's key."""
+
+    def describe(self) -> str:
+        return (
+            f"{self.path}: the file name points to {self.student_id} but its student_id column says "
+            f"{self.other_id}; graded as {self.student_id} only ({self.own_matches} answers fit "
+            f"{self.student_id}'s key, {self.other_matches} fit {self.other_id}'s); {self.other_id}'s "
+            "own submission is not replaced by it"
+        )
+
+
 def _hidden(name: str) -> bool:
     return name.startswith((".", "~$")) or name in ("__MACOSX", "Thumbs.db", "desktop.ini")
+
+
+def printable(path: str) -> str:
+    """A path as text that can be printed and written (undecodable bytes of a name shown as �)."""
+    return os.fsencode(path).decode("utf-8", errors="replace")
 
 
 def read_submissions(
@@ -98,8 +121,10 @@ def read_submissions(
 ) -> Intake:
     """Read every file below *submissions* and choose one submission per student.
 
-    Several files for one student: a readable one wins over an unreadable one, then the most
-    recently modified, then the last by path; the others are recorded as duplicates.
+    Several files for one student: one whose name points to the student wins over one that only
+    names them inside, then a readable one over an unreadable one, then the most recently
+    modified, then the last by path; the others are recorded as duplicates. Symbolic links,
+    FIFOs, devices and sockets are recorded as ``skipped`` and never opened.
 
     Args:
         submissions: the folder (read only; searched recursively, symlinked folders not followed).
@@ -124,16 +149,26 @@ def read_submissions(
         dirs.sort()
         for d in list(dirs):
             full = os.path.join(root, d)
-            if _hidden(d) or (skip_real and os.path.realpath(full) == skip_real):
+            if os.path.islink(full):
                 dirs.remove(d)
-                ignored.append(FileRecord(os.path.join(root, d) + os.sep, "ignored", "folder not read"))
+                ignored.append(FileRecord(printable(full) + os.sep, "skipped", "a symbolic link: not followed"))
+            elif _hidden(d) or (skip_real and os.path.realpath(full) == skip_real):
+                dirs.remove(d)
+                ignored.append(FileRecord(printable(full) + os.sep, "ignored", "folder not read"))
         for name in sorted(names):
             path = Path(root) / name
-            display = str(path)
+            display = printable(str(path))
             if _hidden(name):
                 ignored.append(FileRecord(display, "ignored", "hidden or system file"))
                 continue
-            relative = os.path.relpath(path, submissions)
+            try:
+                kind = special_kind(os.lstat(path).st_mode)
+            except OSError as exc:
+                kind = f"unreadable ({exc.strerror or exc})"
+            if kind:
+                ignored.append(FileRecord(display, "skipped", f"{kind}: not opened"))
+                continue
+            relative = printable(os.path.relpath(path, submissions))
             per_file.append((display, read_file(path, display, relative, ids, key_index)))
     if not per_file and not ignored:
         raise GradekitError(
@@ -144,7 +179,11 @@ def read_submissions(
         for sub in subs:
             if sub.student_id is not None:
                 by_student.setdefault(sub.student_id, []).append(sub)
-    chosen = {sid: max(subs, key=lambda s: (s.readable, s.mtime, s.path)) for sid, subs in by_student.items()}
+    # A file named for the student beats one that only names them inside (no one's submission is
+    # replaced by a file their own name does not point to); then readable; then the newest.
+    chosen = {
+        sid: max(subs, key=lambda s: (s.by_name, s.readable, s.mtime, s.path)) for sid, subs in by_student.items()
+    }
     records = [_record(display, subs, chosen) for display, subs in per_file]
     return Intake(chosen, tuple(records + ignored))
 
@@ -154,7 +193,11 @@ def _record(display: str, subs: list[Submission], chosen: dict[str, Submission])
     dupes = [s.student_id for s in subs if s.student_id and chosen[s.student_id] is not s]
     unknown = sorted({c for s in subs if s.student_id is None for c in s.claimed})
     unreadable = [s for s in subs if not s.readable]
-    parts = []
+    parts = [
+        f"named for {s.named} but holds rows for {', '.join(s.conflicts)}: graded as {s.named} only"
+        for s in subs
+        if s.conflicts
+    ]
     if len(subs) > 1 or (subs and subs[0].class_wide):
         parts.append(f"class-wide: {len(graded)} students graded")
     if dupes:
@@ -194,8 +237,8 @@ def grade_students(
     return [grade_student(s, entries.get(s.student_id, []), chosen.get(s.student_id)) for s in students]
 
 
-def _prepare_out(out: Path, submissions: Path) -> None:
-    """Create OUT, refusing a folder of someone else's files or the submissions folder itself."""
+def _check_out(out: Path, submissions: Path) -> None:
+    """Refuse an output folder that is a file, the submissions folder or a folder of someone else's files."""
     if out.resolve() == submissions.resolve():
         raise GradekitError("expected an output folder other than the submissions folder", path=str(out))
     if out.exists() and not out.is_dir():
@@ -206,8 +249,58 @@ def _prepare_out(out: Path, submissions: Path) -> None:
             "(choose another --out)",
             path=str(out),
         )
-    (out / "feedback").mkdir(parents=True, exist_ok=True)
-    write_text(out / MARKER, "gradekit grading output; files here are rewritten by the next run\n")
+
+
+def _conflicts(
+    grades: Sequence[StudentGrade], keys: Sequence[KeyEntry], students: Sequence[Student]
+) -> list[IntegrityFlag]:
+    """One `IdConflict` per (file, other student) for every graded file that names someone else inside."""
+    entries: dict[str, list[KeyEntry]] = {}
+    for entry in keys:
+        entries.setdefault(entry.student_id, []).append(entry)
+    by_id = {s.student_id: s for s in students}
+    flags: list[IntegrityFlag] = []
+    for g in grades:
+        sub = g.submission
+        if sub is None or not sub.conflicts:
+            continue
+        own = sum(r.correct for r in g.results)
+        for other in sub.conflicts:
+            theirs = grade_student(by_id[other], entries.get(other, []), sub) if other in by_id else None
+            fit = sum(r.correct for r in theirs.results) if theirs else 0
+            matched = tuple(r.entry.key for r in theirs.results if r.correct) if theirs else ()
+            flags.append(IdConflict(g.student.student_id, other, sub.path, own, fit, matched))
+    return flags
+
+
+def _attention(grades: Sequence[StudentGrade], conflicts: Sequence[IntegrityFlag], files: Sequence[FileRecord]) -> str:
+    """The report's first section: students whose grade needs a look before anything else."""
+    names = {g.student.student_id: g.student.name for g in grades}
+    lines = []
+    for f in conflicts:
+        lines.append(
+            f"{f.student_id} {names.get(f.student_id, '')} and {f.other_id} {names.get(f.other_id, '')}: "
+            f"{f.path} is named for {f.student_id} but its student_id column says {f.other_id} "
+            f"(graded as {f.student_id} only; see Integrity flags)"
+        )
+    for g in grades:
+        if g.submission is not None and not g.submission.readable:
+            why = str(g.submission.issues[0]) if g.submission.issues else g.submission.path
+            lines.append(f"{g.student.student_id} {g.student.name}: submitted an unreadable file ({why})")
+    skipped = [f for f in files if f.status == "skipped"]
+    if skipped:
+        lines.append(f"{len(skipped)} special file(s) skipped without being opened (see Files)")
+    if not lines:
+        return ""
+    return "\n".join(["## Check first", "", *("- " + _md_cell(line) for line in lines), "", ""])
+
+
+def _first_section(report: str, section: str) -> str:
+    """*report* with *section* as its first ``##`` section (after the summary lines)."""
+    cut = report.find("\n## ")
+    if not section or cut < 0:
+        return report + ("\n" + section if section else "")
+    return report[: cut + 1] + section + report[cut + 1 :]
 
 
 def grade_batch(
@@ -225,9 +318,11 @@ def grade_batch(
 
     Writes ``OUT/grades.csv``, ``OUT/canvas.csv``, ``OUT/moodle.csv``,
     ``OUT/feedback/<safe id>.md`` and ``.html`` per roster student, ``OUT/report.md`` and
-    ``OUT/histogram.png``; each file atomically. The submissions folder is only read. A bad
-    submission never raises: it scores what can be read and its messages go to the feedback and
-    the report.
+    ``OUT/histogram.png``. Everything is written into a hidden folder beside OUT first and moved
+    in only when complete (`StagedFolder`): after an error or Ctrl-C, OUT is still the previous
+    complete run; feedback of students no longer on the roster is removed. The submissions folder
+    is only read. A bad submission never raises: it scores what can be read and its messages go
+    to the feedback and the report.
 
     Args:
         keys: every student's key entries (grouped by ``student_id`` and ``problem``).
@@ -255,32 +350,45 @@ def grade_batch(
     skip = out if out.resolve().is_relative_to(submissions.resolve()) else None
     intake = read_submissions(submissions, students, keys, skip=skip)
     grades = grade_students(keys, students, intake.chosen)
-    flags = find_copies(grades, keys)
-    _prepare_out(out, submissions)
+    conflicts = _conflicts(grades, keys, students)
+    flags = conflicts + find_copies(grades, keys)
+    _check_out(out, submissions)
     problems = list(dict.fromkeys(e.problem for e in keys))
-    written: list[Path] = []
-
-    def done(path: Path) -> Path:
-        written.append(path)
-        return path
-
-    write_grades(done(out / "grades.csv"), grades, problems, titles)
-    write_canvas(done(out / "canvas.csv"), grades, assignment_title)
-    write_moodle(done(out / "moodle.csv"), grades, assignment_title)
-    names = safe_names(s.student_id for s in students)
-    feedback = out / "feedback"
-    for g in grades:
-        stem = names[g.student.student_id]
-        write_text(done(feedback / f"{stem}.md"), feedback_markdown(g, titles, assignment_title, reveal))
-        write_text(done(feedback / f"{stem}.html"), feedback_html(g, titles, assignment_title, reveal))
-    image = None
-    if histogram:
-        percents = [g.percent for g in grades if g.submission is not None]
-        write_histogram(done(out / "histogram.png"), percents, assignment_title)
-        image = "histogram.png"
-    files = [(f.path, f.status, f.detail) for f in intake.files]
-    report = report_markdown(
-        assignment_title=assignment_title, grades=grades, files=files, flags=flags, histogram=image
-    )
-    write_text(done(out / "report.md"), report)
+    with StagedFolder(out, MARKER) as stage:
+        root = stage.root
+        write_grades(root / "grades.csv", grades, problems, titles)
+        write_canvas(root / "canvas.csv", grades, assignment_title)
+        write_moodle(root / "moodle.csv", grades, assignment_title)
+        names = safe_names(s.student_id for s in students)
+        feedback = root / "feedback"
+        feedback.mkdir()
+        for g in grades:
+            stem = names[g.student.student_id]
+            write_text(feedback / f"{stem}.md", feedback_markdown(g, titles, assignment_title, reveal))
+            write_text(feedback / f"{stem}.html", feedback_html(g, titles, assignment_title, reveal))
+        image = None
+        if histogram:
+            percents = [g.percent for g in grades if g.submission is not None]
+            write_histogram(root / "histogram.png", percents, assignment_title)
+            image = "histogram.png"
+        files = [(f.path, f.status, f.detail) for f in intake.files]
+        report = report_markdown(
+            assignment_title=assignment_title, grades=grades, files=files, flags=flags, histogram=image
+        )
+        write_text(root / "report.md", _first_section(report, _attention(grades, conflicts, intake.files)))
+        written = stage.commit(
+            "gradekit grading output; files listed here are rewritten by the next run, others are left alone",
+            extra_previous=() if stage.previous() else _unlisted_outputs(out),
+        )
     return BatchResult(tuple(grades), intake.files, tuple(flags), out, tuple(written))
+
+
+def _unlisted_outputs(out: Path) -> list[str]:
+    """What an older gradekit wrote into OUT without a listing: the fixed names and the feedback."""
+    if not (out / MARKER).is_file():
+        return []
+    fixed = ["grades.csv", "canvas.csv", "moodle.csv", "report.md", "histogram.png"]
+    feedback = sorted(
+        f"feedback/{p.name}" for p in (out / "feedback").glob("*") if p.suffix in (".md", ".html") and p.is_file()
+    )
+    return [*fixed, *feedback]

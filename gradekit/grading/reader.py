@@ -5,16 +5,21 @@ from __future__ import annotations
 import csv
 import io
 import math
+import os
 import re
+import stat
+import unicodedata
 from collections.abc import Iterable
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
-from gradekit.csvsafe import decode_bytes, sniff_delimiter
+from gradekit import units
+from gradekit.csvsafe import decode_bytes, sniff_delimiter, unguard
 from gradekit.errors import GradekitError
 from gradekit.roster import Student, header_key
 
 MAX_BYTES = 2_000_000  # a submission of a few dozen answers is a few kB
+MAX_CELL = 80  # characters of a value cell ("-1.234567e+03 lbf*in/s**2" is 25)
 EXPECTED = "student_id,key,value,unit"
 
 
@@ -55,6 +60,9 @@ class Submission:
 
     ``student_id`` is a roster id, or None when the file could not be tied to a student;
     ``claimed`` then holds the ids it named. ``readable`` is False for files that gave no rows.
+    ``named`` is the student the file's (LMS) name points to, if any; ``conflicts`` are the other
+    roster students the file's id column names (a friend's template, a copy): the file is graded
+    as ``named`` and never as any of them.
     """
 
     path: str
@@ -65,6 +73,35 @@ class Submission:
     readable: bool = True
     mtime: float = 0.0
     class_wide: bool = False
+    named: str | None = None
+    conflicts: tuple[str, ...] = ()
+
+    @property
+    def by_name(self) -> bool:
+        """The file's own name points to the student it is graded for."""
+        return self.named is not None and self.named == self.student_id
+
+
+# LMS download names. Canvas: ``lastfirst[_LATE]_<user id>_<submission id>_<uploaded name>``;
+# Moodle: ``<Full Name>_<participant id>_assignsubmission_file_`` (a folder, or a prefix of the
+# file name). The numbers there are the LMS's own ids, never student numbers.
+_CANVAS = re.compile(r"(?P<name>[^\W\d_]+(?:[_ -][^\W\d_]+)*?)_(?:late_)?(?P<uid>\d+)_\d+_.+", re.IGNORECASE)
+_MOODLE = re.compile(r"(?P<name>.+?)_(?P<uid>\d+)_assignsubmission_[a-z]+_.*", re.IGNORECASE | re.DOTALL)
+
+
+def _letters(text: str) -> list[str]:
+    """The words of a name, casefolded, accents and punctuation dropped."""
+    plain = unicodedata.normalize("NFKD", text)
+    plain = "".join(c for c in plain if not unicodedata.combining(c)).casefold()
+    return [w for w in re.split(r"[^\w]+|_|\d+", plain) if w]
+
+
+def _name_forms(name: str) -> set[str]:
+    """How an LMS may glue a roster name into a file name: ``ivyjones``, ``jonesivy``."""
+    words = _letters(name)
+    if not words:
+        return set()
+    return {"".join(words), "".join(words[-1:] + words[:-1]), "".join(words[1:] + words[:1])}
 
 
 class IdIndex:
@@ -76,14 +113,22 @@ class IdIndex:
 
     def __init__(self, students: Iterable[Student]) -> None:
         self.exact: dict[str, str] = {}
+        self.ids: dict[str, str] = {}
+        self.lms: dict[str, str] = {}
         loose: dict[str, set[str]] = {}
+        names: dict[str, set[str]] = {}
         for s in students:
             self.exact[s.student_id] = s.student_id
+            self.ids[s.student_id] = s.student_id
             for form in self._forms(s.student_id):
                 loose.setdefault(form, set()).add(s.student_id)
+            for form in _name_forms(s.name):
+                names.setdefault(form, set()).add(s.student_id)
             if s.lms_id:
                 self.exact.setdefault(s.lms_id, s.student_id)
+                self.lms.setdefault(s.lms_id, s.student_id)
         self.loose = {k: next(iter(v)) for k, v in loose.items() if len(v) == 1}
+        self.names = {k: next(iter(v)) for k, v in names.items() if len(v) == 1}
 
     @staticmethod
     def _forms(text: str) -> list[str]:
@@ -95,10 +140,15 @@ class IdIndex:
             forms.append(t.lstrip("0") or "0")
         return forms
 
-    def match(self, raw: str) -> str | None:
-        """The roster id *raw* names, or None."""
-        text = raw.strip()
-        if text in self.exact:
+    def match(self, raw: str, *, lms: bool = True) -> str | None:
+        """The roster id *raw* names (a formula guard ``'`` removed), or None.
+
+        Args:
+            raw: the cell or name part.
+            lms: also accept an LMS user id (``Student.lms_id``).
+        """
+        text = unguard(raw.strip())
+        if text in (self.exact if lms else self.ids):
             return self.exact[text]
         for form in self._forms(text):
             if form in self.loose:
@@ -106,10 +156,32 @@ class IdIndex:
         return None
 
     def from_path(self, relative: str) -> set[str]:
-        """Roster ids that stand as a token in a (relative) file path."""
-        stem = re.sub(r"\.[A-Za-z0-9]{1,5}$", "", relative)
-        tokens = set(re.split(r"[^0-9A-Za-z]+", stem)) | set(re.split(r"[\s_/\\]+", stem))
-        return {self.exact[t] for t in tokens if t in self.exact}
+        """The roster students a (relative) file path points to: none, one, or several (ambiguous).
+
+        Where an LMS put its name (Canvas, Moodle: see `_CANVAS`, `_MOODLE`), only the LMS user
+        id (through the roster's LMS ids) or else the student's name in it counts; a number there
+        is never read as a student number. Otherwise a folder named exactly by a student id, or
+        a student id standing as a word of the file name (``1001.csv``, ``1001_answers.csv``,
+        ``hw5 1001.csv``).
+        """
+        parts = [p for p in re.split(r"[/\\]+", relative) if p]
+        for part in parts:
+            m = _MOODLE.fullmatch(part) or _CANVAS.fullmatch(part)
+            if m:
+                sid = self.lms.get(m["uid"]) or self.names.get("".join(_letters(m["name"])))
+                return {sid} if sid else set()
+        found = set()
+        for folder in parts[:-1]:
+            sid = self.match(folder, lms=False)
+            if sid:
+                found.add(sid)
+        stem = re.sub(r"\.[A-Za-z0-9]{1,5}$", "", parts[-1]) if parts else ""
+        words = [stem, *re.split(r"[\s_]+", stem), *re.split(r"[\s_.,()\[\]-]+", stem)]
+        for word in words:
+            sid = self.match(word, lms=False) if word else None
+            if sid:
+                found.add(sid)
+        return found
 
 
 class KeyIndex:
@@ -160,6 +232,8 @@ def parse_value(text: str, *, decimal_comma: bool) -> tuple[float, str]:
     cell = text.translate(_SPACES).strip()
     if not cell:
         raise ValueError("expected a number, got a blank cell")
+    if len(cell) > MAX_CELL:
+        raise ValueError(f"expected a number and unit of at most {MAX_CELL} characters, got {len(cell):,}")
     m = _NUM.fullmatch(cell)
     if m is None:
         if _NONFINITE.match(cell):
@@ -179,6 +253,8 @@ def parse_value(text: str, *, decimal_comma: bool) -> tuple[float, str]:
     if not math.isfinite(value):
         raise ValueError(f"expected a finite number, got {_clip(text.strip())!r}")
     unit = m["unit"].strip()
+    if len(unit) > units.MAX_LENGTH:
+        raise ValueError(f"expected a unit of at most {units.MAX_LENGTH} characters, got {len(unit):,}")
     if re.match(r"[.,]?\d", unit):  # '1 120', '1.120,5': a thousands separator or two decimal marks
         raise ValueError(f"expected one number without thousands separators, got {_clip(text.strip())!r}")
     if unit.startswith("[") and unit.endswith("]"):
@@ -218,6 +294,9 @@ def _binary(data: bytes, text: str) -> str | None:
 def read_file(path: Path, display: str, relative: str, ids: IdIndex, keys: KeyIndex) -> list[Submission]:
     """Read one submission file; never raises for any content.
 
+    Only a regular file is opened, without following a symbolic link and without blocking (a
+    FIFO or device is refused, not read), and at most `MAX_BYTES` of it are read.
+
     Args:
         path: the file.
         display: the path to print in messages (``sub/x.csv``).
@@ -227,22 +306,23 @@ def read_file(path: Path, display: str, relative: str, ids: IdIndex, keys: KeyIn
 
     Returns:
         One `Submission` per student the file answers for (several for a class-wide file); an
-        unreadable file gives one with ``readable=False`` and the reason in ``issues``.
+        unreadable file gives one with ``readable=False`` and the reason in ``issues``; it is
+        still tied to the student its name points to.
     """
+    found = ids.from_path(relative)
+    named = next(iter(found)) if len(found) == 1 else None
 
     def fail(message: str, line: int | None = None, fld: str | None = "file") -> list[Submission]:
-        found = ids.from_path(relative)
-        sid = next(iter(found)) if len(found) == 1 else None
         issue = Issue(display, line, fld, message)
-        return [Submission(display, sid, (), (issue,), readable=False, mtime=mtime)]
+        return [Submission(display, named, (), (issue,), readable=False, mtime=mtime, named=named)]
 
     mtime = 0.0
     try:
-        stat = path.stat()
-        mtime = stat.st_mtime
-        if stat.st_size > MAX_BYTES:
-            return fail(f"expected a small CSV (under 2 MB), got {stat.st_size:,} bytes")
-        data = path.read_bytes()
+        data, mtime = _read_regular(path)
+    except _NotRegular as exc:
+        return fail(f"expected a regular file, got {exc}")
+    except _TooLarge as exc:
+        return fail(f"expected a small CSV (under 2 MB), got {exc}")
     except OSError as exc:
         return fail(f"expected a readable file, got {exc.strerror or exc}")
     if not data.strip():
@@ -260,6 +340,58 @@ def read_file(path: Path, display: str, relative: str, ids: IdIndex, keys: KeyIn
         return fail(f"expected a CSV with columns {EXPECTED}, got only blank lines")
     reader = _Layout(display, relative, ids, keys, delimiter, mtime)
     return reader.read(rows)
+
+
+class _NotRegular(OSError):
+    """A path that is a link, FIFO, device, socket or folder."""
+
+
+class _TooLarge(OSError):
+    """A file over `MAX_BYTES`."""
+
+
+def special_kind(mode: int) -> str | None:
+    """What a non-regular file is (``a symbolic link``, ``a FIFO``...), or None for a regular file."""
+    kinds = (
+        (stat.S_ISLNK, "a symbolic link"),
+        (stat.S_ISFIFO, "a FIFO (named pipe)"),
+        (stat.S_ISCHR, "a character device"),
+        (stat.S_ISBLK, "a block device"),
+        (stat.S_ISSOCK, "a socket"),
+        (stat.S_ISDIR, "a folder"),
+    )
+    for test, kind in kinds:
+        if test(mode):
+            return kind
+    return None if stat.S_ISREG(mode) else "a special file"
+
+
+def _read_regular(path: Path) -> tuple[bytes, float]:
+    """The bytes and mtime of a regular file, opened without following links or blocking."""
+    flags = os.O_RDONLY | getattr(os, "O_NOFOLLOW", 0) | getattr(os, "O_NONBLOCK", 0)
+    kind = special_kind(os.lstat(path).st_mode)
+    if kind:
+        raise _NotRegular(kind)
+    fd = os.open(path, flags)
+    try:
+        info = os.fstat(fd)
+        kind = special_kind(info.st_mode)
+        if kind:
+            raise _NotRegular(kind)
+        if info.st_size > MAX_BYTES:
+            raise _TooLarge(f"{info.st_size:,} bytes")
+        chunks, size = [], 0
+        while size <= MAX_BYTES:
+            chunk = os.read(fd, MAX_BYTES + 1 - size)
+            if not chunk:
+                break
+            chunks.append(chunk)
+            size += len(chunk)
+        if size > MAX_BYTES:
+            raise _TooLarge(f"more than {MAX_BYTES:,} bytes")
+        return b"".join(chunks), info.st_mtime
+    finally:
+        os.close(fd)
 
 
 def _rows(text: str, delimiter: str) -> list[tuple[int, list[str]]]:
@@ -281,6 +413,7 @@ class _Draft:
     answers: dict[str, Answer] = field(default_factory=dict)
     issues: list[Issue] = field(default_factory=list)
     claimed: set[str] = field(default_factory=set)
+    conflicts: set[str] = field(default_factory=set)
 
 
 class _Layout:
@@ -295,6 +428,28 @@ class _Layout:
         self.keys = keys
         self.delimiter = delimiter
         self.mtime = mtime
+        self.from_name = ids.from_path(relative)
+
+    @property
+    def named(self) -> str | None:
+        """The student the file's name points to (None: none, or several)."""
+        return next(iter(self.from_name)) if len(self.from_name) == 1 else None
+
+    def conflict(self, draft: _Draft, others: Iterable[str]) -> None:
+        """Record roster students named inside the file but not by its name (the file is not theirs)."""
+        others = sorted(set(others) - {self.named, None})
+        if not others:
+            return
+        draft.conflicts.update(others)
+        listed = ", ".join(map(repr, others))
+        draft.issues.append(
+            self.issue(
+                None,
+                "student_id",
+                f"expected {self.named!r} (the file name's student), got rows for {listed}; graded as "
+                f"{self.named!r} only, and never as {listed}",
+            )
+        )
 
     def issue(self, line: int | None, fld: str | None, message: str) -> Issue:
         return Issue(self.display, line, fld, message)
@@ -321,7 +476,7 @@ class _Layout:
                 return self._long(rows, id_pos, i, i + 1, unit_pos, width)
         shown = _clip(self.delimiter.join(header_cells), 60)
         issue = self.issue(header_line, "header", f"expected a header row {EXPECTED}, got {shown!r}")
-        return self._finish({None: _Draft(issues=[issue])}, readable=False)
+        return self._finish({self.named: _Draft(issues=[issue])}, readable=False)
 
     def _long(
         self,
@@ -370,10 +525,14 @@ class _Layout:
     def _owners(
         self, row_ids: list[tuple[int, str, str | None]], drafts: dict[str | None, _Draft]
     ) -> list[str | None]:
-        """Decide which student each row belongs to (column first, then the file name)."""
+        """Decide which student each row belongs to: the file name's student first, then the column.
+
+        A file whose name points to a student is that student's alone: rows naming another
+        roster student are a conflict (reported), never that other student's submission.
+        """
         known = list(dict.fromkeys(sid for _, _, sid in row_ids if sid))
-        from_name = self.ids.from_path(self.relative)
-        if len(known) >= 2:  # a class-wide long file
+        owner = self.named
+        if owner is None and len(known) >= 2:  # a class-wide long file
             owners = []
             for line, raw, sid in row_ids:
                 owners.append(sid)
@@ -384,30 +543,17 @@ class _Layout:
                             self.issue(line, "student_id", "expected a student id, got a blank cell")
                         )
             return owners
-        owner: str | None
-        if len(known) == 1:
+        if owner is None and len(known) == 1:
             owner = known[0]
-            named = from_name - {owner}
-            if named and len(from_name) == 1:
-                drafts.setdefault(owner, _Draft()).issues.append(
-                    self.issue(
-                        None,
-                        "student_id",
-                        f"the file name names student {next(iter(named))!r} but the student_id "
-                        f"column says {owner!r}; graded as {owner!r}",
-                    )
-                )
-        elif len(from_name) == 1:
-            owner = next(iter(from_name))
-        else:
-            owner = None
-            if len(from_name) > 1:
-                names = ", ".join(sorted(from_name))
-                drafts.setdefault(None, _Draft()).issues.append(
-                    self.issue(None, "file", f"expected one student in the file name, got {names}")
-                )
+        if owner is None and len(self.from_name) > 1:
+            names = ", ".join(sorted(self.from_name))
+            drafts.setdefault(None, _Draft()).issues.append(
+                self.issue(None, "file", f"expected one student in the file name, got {names}")
+            )
         draft = drafts.setdefault(owner, _Draft())
-        wrong = [(line, raw) for line, raw, sid in row_ids if raw and (sid is None or sid != owner)]
+        if owner is not None and owner == self.named:
+            self.conflict(draft, known)
+        wrong = [(line, raw) for line, raw, sid in row_ids if raw and sid is None]
         for line, raw in wrong[:3]:
             draft.claimed.add(raw)
             if owner is not None:
@@ -438,6 +584,9 @@ class _Layout:
         return self._cell(key, raw, raw_unit, line)
 
     def _cell(self, key: str, raw: str, raw_unit: str, line: int) -> Answer:
+        if len(raw_unit) > units.MAX_LENGTH:
+            message = f"expected a unit of at most {units.MAX_LENGTH} characters, got {len(raw_unit):,}"
+            return Answer(key, raw[:MAX_CELL], raw_unit[: units.MAX_LENGTH] + "…", None, "", line, "unit", message)
         try:
             number, unit = parse_value(raw, decimal_comma=self.delimiter != ",")
         except ValueError as exc:
@@ -452,13 +601,23 @@ class _Layout:
         header: list[str],
     ) -> list[Submission]:
         drafts: dict[str | None, _Draft] = {}
-        from_name = self.ids.from_path(self.relative)
+        named = self.named
+        if named is not None:  # the file name's student only: their row, or the file's only row
+            row_sids = [self.ids.match(r[id_col]) if id_col is not None and id_col < len(r) else None for _, r in rows]
+            mine = [i for i, sid in enumerate(row_sids) if sid == named]
+            pick = mine[0] if mine else 0 if len(rows) == 1 else None
+            draft = drafts.setdefault(named, _Draft())
+            self.conflict(draft, (sid for sid in row_sids if sid))
+            if pick is not None:
+                line, row = rows[pick]
+                for i, key in wide.items():
+                    raw = row[i] if i < len(row) else ""
+                    draft.answers[key] = replace(self._cell(key, raw, "", line), field=header[i])
+            return self._finish(drafts)
         class_wide = len(rows) > 1
         for line, row in rows:
             raw_id = row[id_col] if id_col is not None and id_col < len(row) else ""
             sid = self.ids.match(raw_id) if raw_id else None
-            if sid is None and not raw_id and len(rows) == 1 and len(from_name) == 1:
-                sid = next(iter(from_name))
             if sid is not None and sid in drafts:
                 drafts[sid].issues.append(
                     self.issue(line, "student_id", f"expected one row per student, got {sid!r} again")
@@ -481,10 +640,8 @@ class _Layout:
         self, drafts: dict[str | None, _Draft], readable: bool = True, class_wide: bool = False
     ) -> list[Submission]:
         if not drafts:  # a header and nothing below it
-            found = self.ids.from_path(self.relative)
-            owner = next(iter(found)) if len(found) == 1 else None
             issue = self.issue(None, "file", "expected answer rows below the header, got none")
-            drafts, readable = {owner: _Draft(issues=[issue])}, False
+            drafts, readable = {self.named: _Draft(issues=[issue])}, False
         return [
             Submission(
                 path=self.display,
@@ -495,6 +652,8 @@ class _Layout:
                 readable=readable,
                 mtime=self.mtime,
                 class_wide=class_wide or len(drafts) > 1,
+                named=self.named,
+                conflicts=tuple(sorted(d.conflicts)),
             )
             for sid, d in drafts.items()
         ]
