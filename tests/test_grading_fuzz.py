@@ -2,12 +2,15 @@
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from gradekit import units
+from gradekit.errors import GradekitError
 from gradekit.grading.compare import grade_student
 from gradekit.grading.reader import IdIndex, KeyIndex, Submission, read_file
 from gradekit.keys import KeyEntry, Tolerance
@@ -111,3 +114,56 @@ def test_random_tables(folder: Path, rows: list[list[str]], sep: str, encoding: 
 @given(st.text(alphabet=st.sampled_from(list(",;\t\"'\n\r\ufeff\x00 0123456789.eE-+NaNk*mp1T_")), max_size=400))
 def test_random_text_of_csv_characters(folder: Path, text: str) -> None:
     check(folder, text.encode("utf-8", errors="surrogatepass"))
+
+
+NAME_PARTS = st.sampled_from(
+    ["123", "456", "789", "0456", "hailesel", "A", "B", "late", "LATE", "1", "_", "-", " ", ".", "/",
+     "assignsubmission_file_", "answers", ".csv", "é", "\udcff", "..", "=", "'"]
+)
+
+
+@FAST
+@given(st.lists(NAME_PARTS, max_size=10).map("".join))
+def test_random_file_names(folder: Path, name: str) -> None:
+    found = IDS.from_path(name)
+    assert found <= {"123", "456"}
+    check(folder, b"key,value,unit\np1.T,1.12,N*m\n", name=name or "x")
+
+
+UNIT_TEXT = st.text(alphabet=st.sampled_from(list("NmkKlbfinftsMrad°/*^·.-_ 0123456789()²e")), max_size=60)
+
+
+@FAST
+@given(UNIT_TEXT)
+def test_random_units_never_raise_anything_but_a_data_error(unit: str) -> None:
+    try:
+        factor = units.factor(unit, "N*m")
+    except GradekitError as exc:
+        assert exc.detail.startswith("expected a unit")
+    else:
+        assert factor == factor  # a number, not NaN
+
+
+@FAST
+@given(ROWS, st.sampled_from(["utf-16-le", "utf-16-be"]), st.sampled_from([",", ";", "\t"]))
+def test_bomless_utf16_tables(folder: Path, rows: list[list[str]], encoding: str, sep: str) -> None:
+    text = "\r\n".join(sep.join(row) for row in [["student_id", "key", "value", "unit"], *rows])
+    check(folder, text.encode(encoding, errors="replace"))
+
+
+@pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="POSIX special files")
+def test_special_files_are_refused_without_being_opened(tmp_path: Path) -> None:
+    os.mkfifo(tmp_path / "fifo.csv")
+    os.symlink("/dev/zero", tmp_path / "zero.csv")
+    os.symlink("/etc/passwd", tmp_path / "passwd.csv")
+    (tmp_path / "dir.csv").mkdir()
+    kinds = {
+        "fifo.csv": "a FIFO (named pipe)",
+        "zero.csv": "a symbolic link",
+        "passwd.csv": "a symbolic link",
+        "dir.csv": "a folder",
+    }
+    for name, kind in kinds.items():
+        [sub] = read_file(tmp_path / name, name, name, IDS, KEYIDX)
+        assert not sub.readable
+        assert [str(i) for i in sub.issues] == [f"{name}: file: expected a regular file, got {kind}"]
