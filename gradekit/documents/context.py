@@ -329,10 +329,11 @@ def _whole(stem: str, sub: str) -> str:
     return f"{stem}_({sub})" if sub else stem
 
 
-def _terms(symbols: list[str], values: list[float]) -> tuple[str, str]:
+def _terms(symbols: list[str], values: list[float], scale: float = 0.0) -> tuple[str, str]:
+    """*scale*: the largest value of the same kind in the whole case (a zero's round-off is below 1e-12 of it)."""
     sym = " + ".join(symbols) if symbols else "0"
     big = max((abs(v) for v in values), default=0.0)
-    values = [0.0 if abs(v) <= 1e-9 * big else v for v in values]  # round-off, not a term
+    values = [0.0 if abs(v) <= max(1e-9 * big, 1e-12 * scale) else v for v in values]  # round-off, not a term
     parts = []
     for i, v in enumerate(values):
         s = num(abs(v), 4)
@@ -351,6 +352,9 @@ def _equations(res: Result, case: CaseResult) -> list[dict]:
     fu, tu, lu = p.units["force"], p.units["torque"], p.units["length"]
     kf, kt = units.factor("N", fu), units.factor("N*m", tu)
     out = []
+    moving = [m for b, m in sol.total.members.items() if b != GROUND]
+    f_scale = kf * max((float(np.max(np.abs(f.vector))) for m in moving for f in m.forces), default=0.0)
+    m_scale = f_scale * kt / kf * max((float(np.max(np.abs(f.point))) for m in moving for f in m.forces), default=0.0)
     for body, member in sol.total.members.items():
         if body == GROUND:
             continue
@@ -372,9 +376,9 @@ def _equations(res: Result, case: CaseResult) -> list[dict]:
             sm.append("T" if name == "driver" else f"M_({_m(name)})")
             vm.append(float(c) * kt)
         eqs = []
-        for head, syms, vals in (("sum F_x", sx, vx), ("sum F_y", sy, vy),
-                                 (f"sum M_({_m(p.point(pname) or 'G')})", sm, vm)):
-            sym, numbers = _terms(syms, vals)
+        for head, syms, vals, scale in (("sum F_x", sx, vx, f_scale), ("sum F_y", sy, vy, f_scale),
+                                        (f"sum M_({_m(p.point(pname) or 'G')})", sm, vm, m_scale)):
+            sym, numbers = _terms(syms, vals, scale)
             eqs.append(Typ(f"${head} = {sym} = {numbers} = 0$"))
         out.append({"body": p.label(body), "name": body, "point": p.point(pname) if pname else "",
                     "force_unit": fu, "torque_unit": tu, "length_unit": lu, "lines": eqs})

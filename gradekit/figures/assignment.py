@@ -65,7 +65,12 @@ def nice(x: float) -> float:
 
 
 def ratio_text(k: float) -> str:
-    """1 -> '1:1', 0.25 -> '1:4', 2 -> '2:1'."""
+    """1 -> '1:1', 0.25 -> '1:4', 2 -> '2:1', 0.75 -> '3:4' (never '1:1.333')."""
+    from fractions import Fraction
+
+    f = Fraction(k).limit_denominator(20)
+    if f > 0 and abs(float(f) - k) <= 1e-9 * k:
+        return f"{f.numerator}:{f.denominator}"
     if k >= 1:
         return f"{fmt(k, 4)}:1"
     return f"1:{fmt(1 / k, 4)}"

@@ -232,10 +232,12 @@ def _bars(link: Linkage) -> dict[str, list[tuple[str, str]]]:
 
 def torque_cycle(result: Result, n: int = 72):
     """The driving torque (or force) over a full crank cycle, the asked positions marked."""
+    import dataclasses
+
+    import numpy as np
     from matplotlib.figure import Figure
 
-    from gradekit.errors import GeometryError
-    from gradekit.pipeline import fill, solve_case
+    from gradekit.pipeline import solve_many
 
     pr = result.problem
     theta = pr.inputs["theta"]
@@ -245,16 +247,12 @@ def torque_cycle(result: Result, n: int = 72):
     drv_force = result.cases[0].solution.linkage.driver.kind == "force"
     out_unit = pr.units["force"] if drv_force else pr.units["torque"]
     si = "N" if drv_force else "N*m"
-    xs, ys = [], []
-    for k in range(n + 1):
-        x = full_turn * k / n
-        try:
-            cr = solve_case(pr, fill(pr, {**base, theta: x}))
-            y = units.convert(cr.solution.driver, si, out_unit)
-        except GeometryError:
-            y = math.nan
-        xs.append(x)
-        ys.append(y)
+    xs = [full_turn * k / n for k in range(n + 1)]
+    # one batch over the turn; the problem's cases would fix the crank angle, so none here
+    batch = solve_many(dataclasses.replace(pr, cases={}), {**base, theta: np.asarray(xs)}, n + 1)
+    drv, unit = batch.cases[0].results["driver"]
+    ys = [math.nan if batch.refused.mask[i] else units.convert(float(drv[i]), unit, out_unit)
+          for i in range(n + 1)]
     fig = Figure(figsize=(5.6, 2.9), dpi=72)
     ax = fig.add_axes((0.13, 0.17, 0.84, 0.72))
     ax.plot(xs, ys, color=BLUE, lw=1.4)
