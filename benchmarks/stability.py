@@ -22,6 +22,7 @@ import numpy as np
 
 from gradekit import units
 from gradekit.errors import GradekitError
+from gradekit.mechanics.errors import MechanicsError
 from gradekit.mechanics.forces import load_point, solve
 from gradekit.mechanics.mechanisms import Motion, build
 from gradekit.mechanics.model import Analysis, Load, MassProps
@@ -102,7 +103,7 @@ def fourbar_moments(p: dict, theta: float, force: tuple[float, float], along_: f
 def _row(fn):
     try:
         return fn(), ""
-    except GradekitError as exc:
+    except (GradekitError, MechanicsError) as exc:
         return None, type(exc).__name__ + ": " + str(getattr(exc, "detail", exc))
 
 

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import click
 
+from gradekit.mechanics import errors as core
+
 
 class GradekitError(click.ClickException):
     """A data error the user can fix. Printed as one line by the CLI, exit code 1.
@@ -44,11 +46,16 @@ class GradekitError(click.ClickException):
         return self._render()
 
 
-class GeometryError(GradekitError):
-    """A mechanism that cannot be assembled or is too close to a singular position."""
+class GeometryError(GradekitError, core.GeometryError):
+    """A mechanism that cannot be assembled or is too close to a singular position.
+
+    The numeric core raises the plain `gradekit.mechanics.errors.GeometryError`; the pipeline
+    translates it into this one, with the problem file and field. Catching the core class
+    catches both.
+    """
 
 
-class ConditioningError(GeometryError):
+class ConditioningError(GeometryError, core.ConditioningError):
     """The equilibrium system is too ill-conditioned to give trustworthy forces."""
 
 

@@ -54,6 +54,20 @@ class Tolerance:
             width = max(width, 0.5 * 10.0**exponent)
         return width
 
+    def bands(self, values, scales):
+        """`band` for arrays of key values, each with its variant's scale (floor resolved per variant)."""
+        import numpy as np
+
+        v = np.abs(np.asarray(values, float))
+        scales = np.abs(np.asarray(scales, float))
+        floor = np.where(np.isfinite(scales), np.maximum(self.abs, self.floor * scales), self.abs) if self.floor else 0
+        width = np.maximum(self.rel * v, np.maximum(self.abs, floor))
+        if self.mode == "sigfigs":
+            with np.errstate(divide="ignore", invalid="ignore"):
+                exponent = np.floor(np.log10(np.where(v > 0, v, 1.0))) - self.sigfigs + 1
+            width = np.where(v > 0, np.maximum(width, 0.5 * 10.0**exponent), width)
+        return width
+
     def accepts(self, answer: float, value: float) -> bool:
         """True when *answer* is within the band around *value*."""
         if not (math.isfinite(answer) and math.isfinite(value)):

@@ -1,38 +1,39 @@
-"""The catalogued mistakes that need a re-solve, evaluated for one variant.
+"""The catalogued mistakes that need a re-solve, evaluated for a batch of variants (or one).
 
 Static answer to a dynamic problem, the inertia torque left out, gravity left out (each solved
-again with that mistake), x and y swapped and the magnitude given for a component (read off the
-same solution). Sign flips and unit slips need no re-solve (`gradekit.grading.compare`).
+again with that mistake, for the whole batch at once), x and y swapped and the magnitude given
+for a component (read off the same solution). Sign flips and unit slips need no re-solve
+(`gradekit.grading.compare`).
 """
 
 from __future__ import annotations
 
 import dataclasses
-from typing import TYPE_CHECKING
+from dataclasses import dataclass
+
+import numpy as np
 
 from gradekit import units
 from gradekit.bank.schema import Problem
 from gradekit.errors import GradekitError
 from gradekit.keys import Mistake
-
-if TYPE_CHECKING:  # sampling imports this module
-    from gradekit.sampling import Variant
+from gradekit.pipeline import ResultBatch, solve_many
 
 
-def catalogued_mistakes(v: Variant) -> dict[str, list[Mistake]]:
-    """Re-solve the variant with each catalogued mistake; map answer key -> mistakes that change it.
+@dataclass(frozen=True)
+class MistakeBatch:
+    """One mistake's value of one answer in every variant; ``changed`` where it differs from the key."""
 
-    Mistakes that need a re-solve: the inertia torque left out, gravity left out, a static answer
-    to a dynamic problem, x and y swapped, magnitude given for a component. (Sign flips and unit
-    slips need no re-solve; the grader adds them.)
-    """
-    from gradekit.pipeline import solve_problem
+    name: str
+    text: str
+    value: np.ndarray
+    changed: np.ndarray
 
-    p = v.problem
-    out: dict[str, list[Mistake]] = {}
-    variants: list[tuple[str, str, Problem]] = []
+
+def _resolved(p: Problem) -> list[tuple[str, str, Problem]]:
+    out: list[tuple[str, str, Problem]] = []
     if p.analysis == "dynamic":
-        variants.append(
+        out.append(
             (
                 "static-answer",
                 "a static answer to a dynamic problem (inertia left out)",
@@ -41,40 +42,62 @@ def catalogued_mistakes(v: Variant) -> dict[str, list[Mistake]]:
         )
         if any(m.inertia not in (0, 0.0) for m in p.mass):
             no_i = tuple(dataclasses.replace(m, inertia=0.0) for m in p.mass)
-            variants.append(("no-inertia-torque", "the inertia torque I·α left out", dataclasses.replace(p, mass=no_i)))
+            out.append(("no-inertia-torque", "the inertia torque I·α left out", dataclasses.replace(p, mass=no_i)))
     if p.gravity is not None:
-        variants.append(("no-gravity", "gravity (the weights) left out", dataclasses.replace(p, gravity=None)))
-    for name, text, mp in variants:
+        out.append(("no-gravity", "gravity (the weights) left out", dataclasses.replace(p, gravity=None)))
+    return out
+
+
+def mistakes_many(batch: ResultBatch, values: dict) -> dict[str, list[MistakeBatch]]:
+    """Every catalogued mistake of every answer of a solved batch (*values*: its raw parameter values).
+
+    Computed once per batch (the re-solves are batched too) and remembered on it.
+    """
+    cached = batch.__dict__.get("_mistakes")
+    if cached is not None:
+        return cached
+    p, n = batch.problem, batch.n
+    out: dict[str, list[MistakeBatch]] = {a.key: [] for a in batch.answer_list}
+    for name, text, mp in _resolved(p):
         try:
-            res = solve_problem(mp, v.values)
+            res = solve_many(mp, values, n)
         except GradekitError:
             continue
-        for a, b in zip(v.result.answers, res.answers, strict=True):
-            if abs(b.value - a.value) > 1e-6 * max(abs(a.value), 1e-12):
-                out.setdefault(a.key, []).append(Mistake(name, text, float(b.value)))
-    for a in v.result.answers:
-        comp = _swap_and_component(v, a)
-        out.setdefault(a.key, []).extend(m for m in comp if abs(m.value - a.value) > 1e-9 * max(abs(a.value), 1))
+        for a, b in zip(batch.answer_list, res.answer_list, strict=True):
+            changed = res.ok & (np.abs(b.value - a.value) > 1e-6 * np.maximum(np.abs(a.value), 1e-12))
+            out[a.key].append(MistakeBatch(name, text, b.value, changed))
+    for a in batch.answer_list:
+        if not a.spec.of.endswith((".x", ".y")):
+            continue
+        case = next(c for c in batch.cases if c.name == a.case)
+        stem, comp = a.spec.of.rsplit(".", 1)
+        for name, text, of in (
+            ("x-y-swapped", "the x and y components swapped", f"{stem}.{'y' if comp == 'x' else 'x'}"),
+            ("magnitude-for-component", "the magnitude given for a component", f"{stem}.mag"),
+        ):
+            if of in case.results:
+                v, u = case.results[of]
+                m = units.convert(v, u, a.unit)
+                out[a.key].append(
+                    MistakeBatch(name, text, m, np.abs(m - a.value) > 1e-9 * np.maximum(np.abs(a.value), 1))
+                )
+    batch.__dict__["_mistakes"] = out
     return out
 
 
-def _swap_and_component(v: Variant, a) -> list[Mistake]:
-    """x/y swapped and magnitude-for-component, read off the same solution's flat results."""
-    if not a.of.endswith((".x", ".y")):
-        return []
-    case = next(c for c in v.result.cases if c.name == a.case)
-    stem, comp = a.of.rsplit(".", 1)
-    other = case.results.get(f"{stem}.{'y' if comp == 'x' else 'x'}")
-    mag = case.results.get(f"{stem}.mag")
-    out = []
-    if other:
-        out.append(Mistake("x-y-swapped", "the x and y components swapped", units.convert(other[0], other[1], a.unit)))
-    if mag:
-        out.append(
-            Mistake(
-                "magnitude-for-component", "the magnitude given for a component", units.convert(mag[0], mag[1], a.unit)
-            )
-        )
+def catalogued_mistakes(v) -> dict[str, list[Mistake]]:
+    """Re-solve one variant with each catalogued mistake; map answer key -> mistakes that change it.
+
+    *v* is a `gradekit.sampling.Variant`: its problem, raw values, and the batch it was solved in
+    (``v.batch``, ``v.index``; solved here when it has none).
+    """
+    batch, i, raw = getattr(v, "batch", None), getattr(v, "index", 0), getattr(v, "batch_values", None)
+    if batch is None:
+        raw = dict(v.values)
+        batch = solve_many(v.problem, raw, 1)
+    out: dict[str, list[Mistake]] = {}
+    for key, found in mistakes_many(batch, raw).items():
+        for m in found:
+            if m.changed[i]:
+                out.setdefault(key, []).append(Mistake(m.name, m.text, float(m.value[i])))
     return out
-
-

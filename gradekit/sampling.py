@@ -1,11 +1,14 @@
-"""Deterministic per-student values: seed derivation, rounding as printed, rejection sampling.
+"""Deterministic per-student values: seed derivation, rounding as printed, batched rejection sampling.
 
 The seed is SHA-256 of (course, assignment salt, student id, problem id), fed to
 `numpy.random.default_rng`; never Python's salted `hash()`, never global RNG state. Values are
 rounded to the precision printed on the sheet, so the solver uses exactly what the student sees.
 A draw is accepted only when the mechanism assembles, passes the virtual-work check and every
 constraint of the problem; after ``max_draws`` rejections the error names the constraint that
-rejected the most.
+rejected the most. Sampling is batched: every pending variant's next draw (from its own
+generator, so each variant's sequence is the one a one-at-a-time loop would draw) is checked
+in one solve per round. Acceptance depends only on the problem file: its constraints and its
+answers' tolerances as the file states them (`gradekit.sampling.acceptance_tolerances`).
 """
 
 from __future__ import annotations
@@ -13,16 +16,16 @@ from __future__ import annotations
 import hashlib
 import math
 from collections import Counter
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from gradekit import units
 from gradekit.bank import expr
 from gradekit.bank.schema import Parameter, Problem
-from gradekit.errors import GeometryError, GradekitError, ProblemError, SamplingError
+from gradekit.errors import GradekitError, SamplingError
 from gradekit.mechanics.forces import VW_LIMIT
-from gradekit.pipeline import Result, fill, published_values, round_display, sig_round, solve_problem
+from gradekit.pipeline import Context, Result, ResultBatch, published_values, round_display, sig_round, solve_many
 
 MAX_DRAWS = 400
 
@@ -46,7 +49,11 @@ def draw(p: Parameter, rng: np.random.Generator) -> float:
 
 @dataclass
 class Variant:
-    """One student's values of a problem and their solution."""
+    """One student's values of a problem and their solution.
+
+    ``values`` are the sampled (non-derived) parameter values; the solution is row ``index`` of
+    ``batch`` (solved once, with every variant drawn with it), ``result`` that row as a `Result`.
+    """
 
     problem: Problem
     values: dict[str, float]
@@ -54,90 +61,248 @@ class Variant:
     draws: int
     result: Result
     redraw: int = 0
+    batch: ResultBatch | None = field(default=None, repr=False, compare=False)
+    index: int = 0
+    batch_values: dict | None = field(default=None, repr=False, compare=False)
+
+
+def _evaluate_rows(text: str, values: dict, n: int) -> np.ndarray:
+    """A constraint expression per variant: vectorised when numpy can, else one row at a time.
+
+    A row whose expression cannot be evaluated counts as False (the draw is rejected).
+    """
+    try:
+        with np.errstate(all="ignore"):
+            out = np.broadcast_to(np.asarray(expr.evaluate(text, values)), (n,))
+        if out.dtype == bool:
+            return out
+    except Exception:  # and/or, conditionals and math functions take one row at a time
+        pass
+    res = np.zeros(n, bool)
+    for i in range(n):
+        try:
+            res[i] = bool(expr.evaluate(text, {k: float(v[i]) if np.ndim(v) else float(v) for k, v in values.items()}))
+        except (expr.ExprError, ValueError, ZeroDivisionError, OverflowError):
+            res[i] = False
+    return res
+
+
+def _grashof(problem: Problem, full: dict, n: int) -> np.ndarray:
+    """True where a four-bar variant violates the problem's Grashof requirement."""
+    ctx = Context(problem, full, n)
+    names = ("crank", "coupler", "rocker", "frame")
+    lens = {k: np.broadcast_to(ctx.si(problem.geometry[k], "length", k), (n,)) for k in names}
+    stack = np.stack(list(lens.values()))
+    s, l_ = stack.min(axis=0), stack.max(axis=0)
+    pq = stack.sum(axis=0) - s - l_
+    want = problem.constraints.grashof
+    grashof = s + l_ <= pq
+    if want == "non-grashof":
+        return grashof
+    bad = ~grashof
+    if want == "crank-rocker":
+        bad |= s != lens["crank"]
+    if want == "double-crank":
+        bad |= s != lens["frame"]
+    return bad
+
+
+def check_many(problem: Problem, values: dict, n: int) -> tuple[np.ndarray, ResultBatch]:
+    """Solve a batch of draws and test every constraint.
+
+    Returns:
+        The rejecting constraint of each draw (None where accepted; the first that fails, in the
+        order: derived values, require, Grashof, assembly/conditioning, virtual work, condition
+        bound, transmission angle, dead centre, gradable, distinguish, answer spread), and the batch.
+    """
+    c = problem.constraints
+    batch = solve_many(problem, values, n)
+    reasons = np.full(n, None, dtype=object)
+
+    def reject(mask, text) -> None:
+        mask = np.broadcast_to(mask, (n,)) & (reasons == None)  # noqa: E711 (elementwise)
+        if isinstance(text, str):
+            reasons[mask] = text
+        else:
+            for i in np.flatnonzero(mask):
+                reasons[i] = text(i)
+
+    refused = batch.refused.mask
+    if refused.any():
+        derived = np.array([bool(refused[i]) and batch.reason(i).startswith("derived: ") for i in range(n)])
+        reject(derived, lambda i: ": ".join(batch.reason(i).split(": ")[:2]))
+    full = batch.values
+    for text, message in c.require:
+        reject(~_evaluate_rows(text, full, n), f"require: {message or text}")
+    if problem.kind in ("fourbar", "fourbar_quick_return") and c.grashof:
+        reject(_grashof(problem, full, n), "grashof")
+    reject(refused, lambda i: "assembles" if "assembled" in batch.reason(i) else "conditioning")
+    ok = ~refused
+    with np.errstate(invalid="ignore"):
+        reject(ok & (batch.virtual_work_residual > VW_LIMIT), "virtual_work")
+        reject(ok & batch.condition_above(c.condition_max), "condition_max")
+        reject(ok & (batch.transmission_angle < c.transmission_min), "transmission_min")
+        if c.dead_centre_min and problem.kind == "slider_crank":
+            for case in batch.cases:
+                pts = case.solutions.linkage.points
+                crank = (pts["A"].x.v - pts["O2"].x.v, pts["A"].y.v - pts["O2"].y.v)
+                rod = (pts["B"].x.v - pts["A"].x.v, pts["B"].y.v - pts["A"].y.v)
+                cross = crank[0] * rod[1] - crank[1] * rod[0]
+                dot = crank[0] * rod[0] + crank[1] * rod[1]
+                ang = np.degrees(np.abs(np.arctan2(cross, dot)))
+                reject(ok & (np.minimum(ang, 180 - ang) < c.dead_centre_min), "dead_centre_min")
+        if c.gradable:
+            for a in batch.answer_list:
+                if a.unit != "deg":
+                    reject(ok & (np.abs(a.value) < c.gradable * a.band()), "gradable")
+        if c.distinguish:
+            from gradekit.mistakes import mistakes_many
+
+            found = mistakes_many(batch, values)
+            for name, keys in c.distinguish:
+                for k in keys:
+                    for a in (x for x in batch.answer_list if x.key == k or x.key.startswith(k + "_")):
+                        m = next((m for m in found.get(a.key, []) if m.name == name), None)
+                        if m is None:
+                            gap = np.zeros(n)
+                        else:
+                            gap = np.where(m.changed, np.abs(a.spec.tolerance.difference(m.value, a.value)), 0.0)
+                        reject(ok & (gap < c.distinguish_factor * a.band()), f"distinguish: {name} on {k}")
+        if c.answer_min_fraction:
+            by_unit: dict[str, list[np.ndarray]] = {}
+            for a in batch.answer_list:
+                if a.unit != "deg":
+                    by_unit.setdefault(units.si_unit(a.unit), []).append(np.abs(a.value))
+            for vals in by_unit.values():
+                lo, hi = np.minimum.reduce(vals), np.maximum.reduce(vals)
+                reject(ok & (lo < c.answer_min_fraction * hi), "answer_min_fraction")
+    return reasons, batch
 
 
 def check(problem: Problem, values: dict[str, float]) -> tuple[str | None, Result | None]:
     """Solve *values* and test every constraint; return (rejecting constraint or None, result)."""
-    c = problem.constraints
+    reasons, batch = check_many(problem, values, 1)
     try:
-        full = fill(problem, values)
-    except ProblemError as exc:  # a derived value undefined for this draw (e.g. sqrt of a negative)
-        return f"derived: {exc.field}", None
-    for text, message in c.require:
-        try:
-            if not expr.evaluate(text, full):
-                return f"require: {message or text}", None
-        except expr.ExprError:
-            return f"require: {message or text}", None
-    if problem.kind in ("fourbar", "fourbar_quick_return") and c.grashof:
-        reason = _grashof(problem, full)
-        if reason:
-            return reason, None
-    try:
-        result = solve_problem(problem, values)
-    except GeometryError as exc:
-        return ("assembles" if "assembled" in exc.detail else "conditioning"), None
+        result = batch.take(0)
     except GradekitError:
-        raise
-    if result.virtual_work_residual > VW_LIMIT:
-        return "virtual_work", result
-    if result.condition_number > c.condition_max:
-        return "condition_max", result
-    if result.transmission_angle < c.transmission_min:
-        return "transmission_min", result
-    if c.dead_centre_min and problem.kind == "slider_crank":
-        for case in result.cases:
-            link = case.solution.linkage
-            crank = link.points["A"].pos() - link.points["O2"].pos()
-            rod = link.points["B"].pos() - link.points["A"].pos()
-            ang = math.degrees(abs(math.atan2(crank[0] * rod[1] - crank[1] * rod[0], crank @ rod)))
-            if min(ang, 180 - ang) < c.dead_centre_min:
-                return "dead_centre_min", result
-    if c.gradable:
-        for a in result.answers:
-            if a.unit != "deg" and abs(a.value) < c.gradable * a.tolerance.band(a.value):
-                return "gradable", result
-    if c.distinguish:
-        from gradekit.mistakes import catalogued_mistakes
-
-        found = catalogued_mistakes(Variant(problem, values, None, 0, result))
-        answers = {a.key: a for a in result.answers}
-        for name, keys in c.distinguish:
-            for k in keys:
-                for a in (x for key, x in answers.items() if key == k or key.startswith(k + "_")):
-                    m = next((m for m in found.get(a.key, []) if m.name == name), None)
-                    gap = abs(a.tolerance.difference(m.value, a.value)) if m else 0.0
-                    if gap < c.distinguish_factor * a.tolerance.band(a.value):
-                        return f"distinguish: {name} on {k}", result
-    if c.answer_min_fraction:
-        by_unit: dict[str, list[float]] = {}
-        for a in result.answers:
-            if a.unit != "deg":
-                by_unit.setdefault(units.si_unit(a.unit), []).append(abs(a.value))
-        for vals in by_unit.values():
-            if min(vals) < c.answer_min_fraction * max(vals):
-                return "answer_min_fraction", result
-    return None, result
+        result = None
+    return reasons[0], result
 
 
-def _grashof(problem: Problem, full: dict[str, float]) -> str | None:
-    from gradekit.pipeline import Context
+@dataclass
+class VariantBatch:
+    """Many variants of one problem (one per seed), each the first accepted draw of its generator.
 
-    ctx = Context(problem, full)
-    lens = {k: ctx.si(problem.geometry[k], "length", k) for k in ("crank", "coupler", "rocker", "frame")}
-    s, l_ = min(lens.values()), max(lens.values())
-    pq = sum(lens.values()) - s - l_
-    want = problem.constraints.grashof
-    grashof = s + l_ <= pq
-    if want == "non-grashof":
-        return None if not grashof else "grashof"
-    if not grashof:
-        return "grashof"
-    if want == "crank-rocker" and s != lens["crank"]:
-        return "grashof"
-    if want == "double-crank" and s != lens["frame"]:
-        return "grashof"
-    return None
+    ``values[name]`` and ``answers[key]`` are arrays in the order of the seeds; ``ok`` is False for
+    a seed that found no acceptable draw within ``max_draws`` (``reason(i)`` says which constraint
+    rejected it most). ``variant(i)`` is one of them as a `Variant`.
+    """
+
+    problem: Problem
+    seeds: list[int | None]
+    values: dict[str, np.ndarray]
+    draws: np.ndarray
+    ok: np.ndarray
+    rows: list[tuple[ResultBatch, int, dict] | None]
+    failures: dict[int, Counter]
+    redraws: np.ndarray = field(default_factory=lambda: np.zeros(0, int))
+
+    def __len__(self) -> int:
+        return len(self.seeds)
+
+    def reason(self, i: int) -> str:
+        rejected = self.failures.get(i)
+        if not rejected:
+            return ""
+        worst, count = rejected.most_common(1)[0]
+        return (
+            f"expected an acceptable variant within {int(self.draws[i])} draws, got none: "
+            f"constraint {worst!r} rejected {count} of them ({dict(rejected)})"
+        )
+
+    @property
+    def answers(self) -> dict[str, np.ndarray]:
+        """Every answer of every variant (NaN where not ok), in the answer's unit."""
+        out: dict[str, np.ndarray] = {}
+        for i, row in enumerate(self.rows):
+            if row is None:
+                continue
+            batch, j, _ = row
+            for a in batch.answer_list:
+                out.setdefault(a.key, np.full(len(self), np.nan))[i] = a.value[j]
+        return out
+
+    def variant(self, i: int) -> Variant:
+        """Variant *i*; raises `SamplingError` when it found no acceptable draw."""
+        if not self.ok[i]:
+            raise SamplingError(self.reason(i), path=self.problem.path, field="constraints")
+        batch, j, raw = self.rows[i]
+        values = {k: float(v[i]) for k, v in self.values.items()}
+        redraw = int(self.redraws[i]) if len(self.redraws) else 0
+        return Variant(self.problem, values, self.seeds[i], int(self.draws[i]), batch.take(j), redraw, batch, j, raw)
+
+
+def sample_many(
+    problem: Problem,
+    seeds: list[int] | range | None = None,
+    *,
+    course: str = "",
+    salt: str = "",
+    students: list[str] | None = None,
+    redraws: list[int] | None = None,
+    max_draws: int = MAX_DRAWS,
+) -> VariantBatch:
+    """Draw one variant per seed (or per student of a course and salt), checked in batches.
+
+    Each seed's generator draws until a draw passes every constraint; all pending draws of a
+    round are solved together, so a class costs a few batched solves, not one solve per draw.
+    """
+    if seeds is None:
+        students = list(students or [])
+        rd = list(redraws or [0] * len(students))
+        seeds = [derive_seed(course, salt, s, problem.id, r) for s, r in zip(students, rd, strict=True)]
+    seeds = list(seeds)
+    n = len(seeds)
+    base = published_values(problem)
+    randoms = [p for p in problem.parameters.values() if p.random]
+    values = {k: np.full(n, v, float) for k, v in base.items()}
+    draws = np.zeros(n, int)
+    ok = np.zeros(n, bool)
+    rows: list = [None] * n
+    failures: dict[int, Counter] = {}
+    if not randoms:  # every seed gets the published values
+        batch = solve_many(problem, base, 1)
+        batch.take(0)  # raises the geometry error of a published variant that cannot be solved
+        rows = [(batch, 0, base)] * n
+        everyone = np.ones(n, bool)
+        return VariantBatch(problem, seeds, values, draws, everyone, rows, failures, np.array(redraws or [0] * n))
+    rngs = [np.random.default_rng(s) for s in seeds]
+    pending = np.arange(n)
+    for attempt in range(1, max_draws + 1):
+        if not len(pending):
+            break
+        cand = {k: np.full(len(pending), v, float) for k, v in base.items()}
+        for j, i in enumerate(pending):
+            rng = rngs[i]
+            for p in randoms:
+                cand[p.name][j] = round_display(p, draw(p, rng)) if not p.choices else draw(p, rng)
+        reasons, batch = check_many(problem, cand, len(pending))
+        keep = []
+        for j, i in enumerate(pending):
+            draws[i] = attempt
+            if reasons[j] is None and batch.ok[j]:
+                ok[i] = True
+                rows[i] = (batch, j, cand)
+                for p in randoms:
+                    values[p.name][i] = cand[p.name][j]
+            else:
+                failures.setdefault(int(i), Counter())[reasons[j] or "unknown"] += 1
+                keep.append(i)
+        pending = np.array(keep, int)
+    for i in range(n):
+        if ok[i]:
+            failures.pop(i, None)
+    return VariantBatch(problem, seeds, values, draws, ok, rows, failures, np.array(redraws or [0] * n))
 
 
 def variant(
@@ -157,32 +322,13 @@ def variant(
     """
     base = published_values(problem)
     if student is None and seed is None:
-        reason, result = check(problem, base)
-        if result is None:
-            reason, result = None, solve_problem(problem, base)  # raises the geometry error itself
-        return Variant(problem, base, None, 0, result)
+        reasons, batch = check_many(problem, base, 1)
+        return Variant(problem, base, None, 0, batch.take(0), 0, batch, 0, base)
     if seed is None:
         seed = derive_seed(course, salt, student or "", problem.id, redraw)
-    rng = np.random.default_rng(seed)
-    randoms = [p for p in problem.parameters.values() if p.random]
-    if not randoms:
-        return Variant(problem, base, seed, 0, solve_problem(problem, base))
-    rejected: Counter[str] = Counter()
-    for n in range(1, max_draws + 1):
-        values = dict(base)
-        for p in randoms:
-            values[p.name] = round_display(p, draw(p, rng)) if not p.choices else draw(p, rng)
-        reason, result = check(problem, values)
-        if reason is None and result is not None:
-            return Variant(problem, values, seed, n, result)
-        rejected[reason or "unknown"] += 1
-    worst, count = rejected.most_common(1)[0]
-    raise SamplingError(
-        f"expected an acceptable variant within {max_draws} draws, got none: "
-        f"constraint {worst!r} rejected {count} of them ({dict(rejected)})",
-        path=problem.path,
-        field="constraints",
-    )
+    v = sample_many(problem, [seed], max_draws=max_draws).variant(0)
+    v.redraw = redraw
+    return v
 
 
 def class_variants(
@@ -199,14 +345,17 @@ def class_variants(
     A student starts at re-draw counter ``redraws[s]`` (0 by default: an instructor's explicit
     re-draw of one student changes only that student's seed). A student whose values repeat an
     earlier student's (in roster order) is re-drawn with the next counter, unless *frozen* (the
-    counters come from a manifest and are reproduced exactly).
+    counters come from a manifest and are reproduced exactly). The whole class is drawn in one
+    batch; only the re-draws of repeated values are drawn one by one.
     """
+    start = [(redraws or {}).get(s, 0) for s in students]
+    vb = sample_many(problem, course=course, salt=salt, students=students, redraws=start)
     out: dict[str, Variant] = {}
     seen: set[tuple] = set()
     randoms = any(p.random for p in problem.parameters.values())
-    for s in students:
-        r = (redraws or {}).get(s, 0)
-        v = variant(problem, course=course, salt=salt, student=s, redraw=r)
+    for i, s in enumerate(students):
+        r = start[i]
+        v = vb.variant(i)
         key = tuple(sorted(v.values.items()))
         while randoms and key in seen and r < limit and not frozen:
             r += 1

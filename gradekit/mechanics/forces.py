@@ -1,4 +1,4 @@
-"""Static and dynamic (d'Alembert) force analysis of one mechanism position.
+"""Static and dynamic (d'Alembert) force analysis of mechanism positions, batched.
 
 Every moving body contributes three equilibrium equations (forces in x and y, moments about the
 body's origin) including inertia forces −m·a_G and couples −I_G·α. The unknowns are the pin
@@ -6,31 +6,59 @@ forces, each slider's normal force and couple, and the driving torque or force. 
 superposition group (each named load, gravity, each body's inertia) form one right-hand side, so
 the solution for every group and their sum come from one factorisation.
 
-The driving torque is cross-checked on every solve by virtual work (power balance including
-inertia terms), which uses only the kinematics, not the matrix.
+All variants of a batch share one topology, so the systems are assembled into one (N, m, m)
+array and solved, conditioned and cross-checked together (`solve_many`); `solve` is the same for
+one variant. The driving torque is cross-checked by virtual work (power balance including
+inertia terms), which uses only the kinematics, not the matrix. The free-body data a figure
+needs (`Member`) is computed only when a figure or key asks for it.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 
-from gradekit.errors import ConditioningError
+from gradekit.mechanics.errors import ConditioningError, GeometryError
 from gradekit.mechanics.jet import P, along
-from gradekit.mechanics.model import GROUND, Analysis, Linkage, Load, Prismatic
+from gradekit.mechanics.model import GROUND, Analysis, Batched, Linkage, Load, Prismatic, Refusals
 
 VW_LIMIT = 1e-9
 
 
-def _cross(r: np.ndarray, f: np.ndarray) -> float:
-    return float(r[0] * f[1] - r[1] * f[0])
+def _cross(r: np.ndarray, f: np.ndarray):
+    return r[..., 0] * f[..., 1] - r[..., 1] * f[..., 0]
+
+
+def _num(x):
+    """A float for a 0-d value, the array otherwise."""
+    return float(x) if np.ndim(x) == 0 else x
+
+
+def _xy(x, y) -> np.ndarray:
+    """Stack two (broadcastable) coordinate arrays into (..., 2)."""
+    x, y = np.broadcast_arrays(np.asarray(x, float), np.asarray(y, float))
+    return np.stack([x, y], axis=-1)
+
+
+def _unit(angle) -> np.ndarray:
+    return _xy(np.cos(angle), np.sin(angle))
+
+
+def _col(x) -> np.ndarray:
+    """A per-variant scalar as a column that scales (..., 2) vectors."""
+    return np.asarray(x, float)[..., None]
 
 
 @dataclass(frozen=True)
 class BodyState:
-    """Kinematics and inertia of one body; vectors are world (x, y) arrays in SI."""
+    """Kinematics and inertia of one body (or one body in every variant of a batch); SI.
+
+    ``angle``, ``omega``, ``alpha``, ``mass`` and ``inertia`` are floats (or (N,) arrays);
+    ``g``, ``v_g`` and ``a_g`` are world (x, y) vectors of shape (2,) (or (N, 2)).
+    """
 
     angle: float
     omega: float
@@ -43,17 +71,32 @@ class BodyState:
 
     @property
     def inertia_force(self) -> np.ndarray:
-        return -self.mass * self.a_g
+        return -_col(self.mass) * self.a_g
 
     @property
     def inertia_couple(self) -> float:
-        return -self.inertia * self.alpha
+        return _num(-np.asarray(self.inertia) * self.alpha)
 
     @property
     def offset(self) -> float:
         """h = I·α / (m·|a_G|): distance of the equivalent offset inertia force from G."""
-        f = float(np.hypot(*self.inertia_force))
-        return abs(self.inertia_couple) / f if f > 0 else math.inf if self.inertia_couple else 0.0
+        f = np.hypot(self.inertia_force[..., 0], self.inertia_force[..., 1])
+        c = np.abs(self.inertia_couple)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            h = np.where(f > 0, c / np.where(f > 0, f, 1.0), np.where(c != 0, math.inf, 0.0))
+        return _num(h)
+
+    def take(self, i: int) -> BodyState:
+        def t(x):
+            return float(x[i]) if np.ndim(x) else float(x)
+
+        def v(x):
+            return np.array(x[i] if np.ndim(x) == 2 else x, dtype=float)
+
+        return BodyState(
+            t(self.angle), t(self.omega), t(self.alpha), v(self.g), v(self.v_g), v(self.a_g), t(self.mass),
+            t(self.inertia),
+        )
 
 
 @dataclass(frozen=True)
@@ -89,11 +132,18 @@ class Member:
 
 @dataclass(frozen=True)
 class GroupResult:
-    """Driver value and joint reactions due to one superposition group (or the total)."""
+    """Driver value and joint reactions due to one superposition group (or the total).
+
+    ``members`` (the free-body data of the graphical method) is built on first use.
+    """
 
     driver: float
     joints: dict[str, np.ndarray]  # revolute: force of a on b; prismatic: (N, couple)
-    members: dict[str, Member]
+    _members: object = field(default=None, repr=False, compare=False)
+
+    @cached_property
+    def members(self) -> dict[str, Member]:
+        return self._members()
 
 
 @dataclass(frozen=True)
@@ -114,15 +164,149 @@ class Solution:
         return self.total.driver
 
 
-def _unit(angle: float) -> np.ndarray:
-    return np.array([math.cos(angle), math.sin(angle)])
+class Conditioning:
+    """The 2-norm condition numbers κ of a batch of unit-free systems, exact but computed lazily.
+
+    An SVD per system costs more than assembling and solving it, and most questions are "is κ
+    above this bound?". The Frobenius condition number κ_F = ‖A‖_F·‖A⁻¹‖_F bounds the answer:
+    κ_F / n ≤ κ ≤ κ_F for an n×n system, so an SVD is needed only for the variants whose bound
+    straddles the limit (and for the values someone reads). Refused (NaN) systems have κ = inf.
+    """
+
+    def __init__(self, systems: np.ndarray, refused: np.ndarray, inverses: np.ndarray | None) -> None:
+        self.systems = systems
+        self.refused = refused
+        n = systems.shape[-1]
+        with np.errstate(all="ignore"):
+            if inverses is not None:
+                upper = np.sqrt(np.einsum("nij,nij->n", systems, systems) * np.einsum("nij,nij->n", inverses, inverses))
+            else:  # an exactly singular system in the batch: no cheap bound
+                upper = np.full(len(systems), np.nan)
+        # a hair of slack on both bounds, so rounding in κ_F never decides what only an SVD can
+        self.upper = np.where(refused, np.inf, upper * (1 + 1e-9))
+        self.lower = self.upper / n * (1 - 2e-9)
+        self._exact = np.full(len(systems), np.nan)
+
+    def _compute(self, mask: np.ndarray) -> None:
+        todo = mask & np.isnan(self._exact)
+        if todo.any():
+            with np.errstate(all="ignore"):
+                try:
+                    self._exact[todo] = np.linalg.cond(self.systems[todo])
+                except np.linalg.LinAlgError:
+                    self._exact[todo] = [_cond1(a) for a in self.systems[todo]]
+            self._exact[todo & self.refused] = np.inf
+            self._exact[todo & ~np.isfinite(self._exact)] = np.inf
+
+    def above(self, limit) -> np.ndarray:
+        """Where κ > *limit* or is not finite, deciding by the bounds where they suffice."""
+        limit = np.broadcast_to(np.asarray(limit, float), self.upper.shape)
+        sure = np.isfinite(self.upper)
+        unsure = ~sure | ((self.upper > limit) & (self.lower <= limit))
+        self._compute(unsure & ~self.refused)
+        exact = np.where(self.refused, np.inf, self._exact)
+        return np.where(unsure | self.refused, ~(exact <= limit), self.lower > limit)
+
+    def at(self, i: int) -> float:
+        mask = np.zeros(len(self.upper), bool)
+        mask[i] = True
+        self._compute(mask)
+        return float(np.inf if self.refused[i] else self._exact[i])
+
+    @property
+    def values(self) -> np.ndarray:
+        self._compute(~self.refused)
+        return np.where(self.refused, np.inf, self._exact)
 
 
-def load_point(link: Linkage, body: str, at: str, along_: float, across: float) -> P:
+def _cond1(a: np.ndarray) -> float:
+    try:
+        return float(np.linalg.cond(a))
+    except np.linalg.LinAlgError:
+        return math.inf
+
+
+@dataclass(frozen=True)
+class Solutions(Batched):
+    """The force analysis of a batch of variants of one topology.
+
+    ``x[i, :, g]`` are the unknowns of variant *i* due to group ``group_names[g]`` (the columns:
+    two per joint in joint order, then the driver); ``total`` their sum over groups. ``ok`` is
+    False for every refused variant, whose reason ``refused.reason(i)`` gives (it could not be
+    assembled, its motion is undefined, or its system is too ill-conditioned; the last also in
+    ``ill_conditioned``). Numbers of refused variants are meaningless.
+    """
+
+    linkage: Linkage
+    analysis: Analysis
+    group_names: tuple[str, ...]
+    x: np.ndarray
+    total: np.ndarray
+    states: dict[str, BodyState]
+    virtual_work_driver: np.ndarray
+    virtual_work_residual: np.ndarray
+    conditioning: Conditioning
+    refused: Refusals
+    ill_conditioned: np.ndarray
+
+    @property
+    def condition_number(self) -> np.ndarray:
+        """The 2-norm condition number of every variant's unit-free system (inf where refused)."""
+        return self.conditioning.values
+
+    @property
+    def driver(self) -> np.ndarray:
+        return self.total[:, -1]
+
+    def joint(self, name: str, x: np.ndarray | None = None) -> np.ndarray:
+        """The (N, 2) unknowns of joint *name* from the (N, ncol) array *x* (the total by default)."""
+        k = next(k for k, j in enumerate(self.linkage.joints) if j.name == name)
+        return (self.total if x is None else x)[:, 2 * k : 2 * k + 2]
+
+    def at(self, i: int) -> Solution:
+        """Variant *i* as a `Solution` (raises the variant's error when it was refused)."""
+        if self.refused.mask[i]:
+            cls = ConditioningError if self.ill_conditioned[i] else GeometryError
+            raise cls(self.refused.reason(i))
+        link = self.linkage.take(i) if self.n > 1 or np.ndim(self.linkage.scale) else self.linkage
+        an = self.analysis.take(i)
+        states = {n: st.take(i) for n, st in self.states.items()}
+        known = list(_known_forces(link, an, states))
+
+        def result(x: np.ndarray, grp: str | None) -> GroupResult:
+            joints = {j.name: np.array(x[2 * k : 2 * k + 2]) for k, j in enumerate(link.joints)}
+            drv = float(x[-1])
+            return GroupResult(drv, joints, lambda: _members(link, an, states, known, joints, drv, grp))
+
+        return Solution(
+            link,
+            an,
+            result(self.total[i], None),
+            {g: result(self.x[i, :, k], g) for k, g in enumerate(self.group_names)},
+            states,
+            float(self.virtual_work_driver[i]),
+            float(self.virtual_work_residual[i]),
+            self.conditioning.at(i),
+        )
+
+
+def load_point(link: Linkage, body: str, at: str, along_, across) -> P:
     """World point (jets) *along*/*across* the axis of *body* from point *at* (origin if empty)."""
     b = link.bodies[body]
     base = link.points[at] if at else b.origin
     return along(base, b.angle, along_, across)
+
+
+def _pos(p: P) -> np.ndarray:
+    return _xy(p.x.v, p.y.v)
+
+
+def _vel(p: P) -> np.ndarray:
+    return _xy(p.x.d, p.y.d)
+
+
+def _acc(p: P) -> np.ndarray:
+    return _xy(p.x.dd, p.y.dd)
 
 
 def body_states(link: Linkage, an: Analysis) -> dict[str, BodyState]:
@@ -132,13 +316,7 @@ def body_states(link: Linkage, an: Analysis) -> dict[str, BodyState]:
         mp = an.mass.get(name)
         g = load_point(link, name, mp.at, mp.along, mp.across) if mp else b.origin
         out[name] = BodyState(
-            float(b.angle.v),
-            float(b.angle.d),
-            float(b.angle.dd),
-            g.pos(),
-            g.vel(),
-            g.acc(),
-            mp.mass if mp else 0.0,
+            b.angle.v, b.angle.d, b.angle.dd, _pos(g), _vel(g), _acc(g), mp.mass if mp else 0.0,
             mp.inertia if mp else 0.0,
         )
     return out
@@ -147,8 +325,8 @@ def body_states(link: Linkage, an: Analysis) -> dict[str, BodyState]:
 def _load_vector(link: Linkage, ld: Load) -> np.ndarray:
     if ld.relative_angle:
         mag, rel = ld.force
-        return mag * _unit(float(link.bodies[ld.body].angle.v) + rel)
-    return np.asarray(ld.force, dtype=float)
+        return _col(mag) * _unit(link.bodies[ld.body].angle.v + rel)
+    return _xy(*ld.force)
 
 
 def _known_forces(link: Linkage, an: Analysis, states: dict[str, BodyState]):
@@ -159,138 +337,178 @@ def _known_forces(link: Linkage, an: Analysis, states: dict[str, BodyState]):
     for i, ld in enumerate(an.loads):
         yield ld.group, ld.body, ld, _load_vector(link, ld), ld.torque, "load", ld.group or f"load{i}"
     for name, st in states.items():
-        g_pt = None  # at the centre of mass, whose position and velocity BodyState holds
-        if an.gravity is not None and st.mass:
-            yield "gravity", name, g_pt, st.mass * np.asarray(an.gravity), 0.0, "gravity", f"W[{name}]"
-        if an.dynamic and (st.mass or st.inertia):
-            yield (f"inertia:{name}", name, g_pt, st.inertia_force, st.inertia_couple, "inertia", f"Fi[{name}]")
-
-
-def solve(link: Linkage, an: Analysis, virtual: Linkage | None = None) -> Solution:
-    """Solve the equilibrium of every moving body of *link* under the loads of *an*.
-
-    Args:
-        link: the mechanism position with its kinematics.
-        an: loads, mass properties, gravity and whether inertia is included.
-        virtual: the same position at unit input speed, for the virtual-work check when the
-            input speed of *link* is zero (defaults to *link* itself).
-
-    Raises:
-        ConditioningError: the system's condition number exceeds ``an.max_condition``.
-    """
-    names = list(link.bodies)
-    row = {n: 3 * i for i, n in enumerate(names)}
-    origin = {n: link.bodies[n].origin.pos() for n in names}
-    ncol = 2 * len(link.joints) + 1
-    nrow = 3 * len(names)
-    A = np.zeros((nrow, ncol))
-    scale = link.scale
-
-    def put(body: str, col: int, f: np.ndarray, point: np.ndarray, couple: float = 0.0) -> None:
-        if body == GROUND:
-            return
-        r = row[body]
-        A[r, col] += f[0]
-        A[r + 1, col] += f[1]
-        A[r + 2, col] += _cross(point - origin[body], f) + couple
-
-    couple_cols = [ncol - 1]
-    for k, j in enumerate(link.joints):
-        c = 2 * k
-        pt = j.point.pos()
-        if isinstance(j, Prismatic):
-            n = _unit(float(j.axis.v) + math.pi / 2)
-            put(j.block, c, n, pt)
-            put(j.guide, c, -n, pt)
-            put(j.block, c + 1, np.zeros(2), pt, 1.0)
-            put(j.guide, c + 1, np.zeros(2), pt, -1.0)
-            couple_cols.append(c + 1)
-        else:
-            for axis in (0, 1):
-                e = np.eye(2)[axis]
-                put(j.b, c + axis, e, pt)
-                put(j.a, c + axis, -e, pt)
-    drv = link.driver
-    if drv.kind == "torque":
-        put(drv.body, ncol - 1, np.zeros(2), origin[drv.body], 1.0)
-    else:
-        jnt = next(j for j in link.joints if j.name == drv.joint)
-        put(drv.body, ncol - 1, _unit(float(jnt.axis.v)), jnt.point.pos())
-        couple_cols.remove(ncol - 1)
-
-    states = body_states(link, an)
-    known = list(_known_forces(link, an, states))
-    group_names = list(dict.fromkeys(k[0] for k in known))
-    B = np.zeros((nrow, len(group_names)))
-    for grp, body, ld, f, tq, _kind, _name in known:
-        p = _where(link, ld) if ld is not None else states[body].g
-        r, gcol = row[body], group_names.index(grp)
-        B[r, gcol] += f[0]
-        B[r + 1, gcol] += f[1]
-        B[r + 2, gcol] += _cross(p - origin[body], f) + tq
-
-    # Unit-free conditioning: moment rows / L, couple columns × L.
-    rs = np.ones(nrow)
-    rs[2::3] = 1.0 / scale
-    cs = np.ones(ncol)
-    cs[couple_cols] = scale
-    cond = float(np.linalg.cond(A * rs[:, None] * cs[None, :]))
-    if not math.isfinite(cond) or cond > an.max_condition:
-        raise ConditioningError(
-            f"the equilibrium equations are singular or nearly so (condition number {cond:.3g} > "
-            f"{an.max_condition:.3g}, transmission angle {link.transmission:.3g}°): the mechanism "
-            "is at or too near a toggle or dead-centre position for this driver"
-        )
-    X = -np.linalg.solve(A, B) if group_names else np.zeros((ncol, 0))
-    total_x = X.sum(axis=1) if group_names else np.zeros(ncol)
-
-    def result(x: np.ndarray, grp: str | None) -> GroupResult:
-        joints = {j.name: np.array(x[2 * k : 2 * k + 2]) for k, j in enumerate(link.joints)}
-        members = _members(link, an, states, known, joints, float(x[-1]), grp)
-        return GroupResult(float(x[-1]), joints, members)
-
-    total = result(total_x, None)
-    groups = {g: result(X[:, i], g) for i, g in enumerate(group_names)}
-    vw = _virtual_work(link, virtual or link, an, states, known)
-    q = total.driver
-    # Relative to the driver, the work terms and the load level of the whole system (a load at a
-    # fixed pivot does no work but sets the size of the roundoff in every unknown).
-    load_level = float(np.abs(B * rs[:, None]).max()) * scale if B.size else 0.0
-    if drv.kind == "force":
-        load_level /= scale
-    denom = max(abs(q), vw[1], load_level, 1e-300)
-    return Solution(link, an, total, groups, states, vw[0], abs(vw[0] - q) / denom, cond)
-
-
-def _virtual_work(link: Linkage, virt: Linkage, an: Analysis, states, known) -> tuple[float, float]:
-    """Driver value from the power balance, and the scale of the terms (for a relative residual)."""
-    speed = float(link.bodies[link.input_body].angle.d)
-    ratio = 1.0 / speed if (virt is link and speed) else 1.0
-    if virt is link and not speed:
-        raise ValueError("a virtual-work check at zero input speed needs a unit-speed linkage")
-    vstates = body_states(virt, an)
-    terms = []
-    for _grp, body, ld, f, tq, _kind, _name in known:
-        b = virt.bodies[body]
-        if ld is not None:
-            v = load_point(virt, ld.body, ld.at, ld.along, ld.across).vel()
-        else:
-            v = vstates[body].v_g
-        terms.append((float(np.dot(f, v)) + tq * float(b.angle.d)) * ratio)
-    drv = virt.driver
-    if drv.kind == "torque":
-        vd = float(virt.bodies[drv.body].angle.d) * ratio
-    else:
-        jnt = next(j for j in virt.joints if j.name == drv.joint)
-        vd = float(np.dot(jnt.point.vel(), _unit(float(jnt.axis.v)))) * ratio
-    if abs(vd) < 1e-12:
-        return math.nan, math.inf
-    total = sum(terms)
-    return -total / vd, sum(abs(t) for t in terms) / abs(vd)
+        has_mass = np.any(np.asarray(st.mass) != 0)
+        if an.gravity is not None and has_mass:
+            yield "gravity", name, None, _col(st.mass) * _xy(*an.gravity), 0.0, "gravity", f"W[{name}]"
+        if an.dynamic and (has_mass or np.any(np.asarray(st.inertia) != 0)):
+            yield (f"inertia:{name}", name, None, st.inertia_force, st.inertia_couple, "inertia", f"Fi[{name}]")
 
 
 def _where(link: Linkage, ld: Load) -> np.ndarray:
-    return load_point(link, ld.body, ld.at, ld.along, ld.across).pos()
+    return _pos(load_point(link, ld.body, ld.at, ld.along, ld.across))
+
+
+def solve_many(link: Linkage, an: Analysis, virtual: Linkage | None = None) -> Solutions:
+    """Solve the equilibrium of every moving body in every variant of *link* under *an*'s loads.
+
+    Args:
+        link: the (batched) mechanism positions with their kinematics.
+        an: loads, mass properties, gravity and whether inertia is included (floats or arrays).
+        virtual: the same positions at unit input speed, for the virtual-work check of variants
+            whose input speed is zero (those variants are refused without it).
+
+    Returns:
+        `Solutions`, with refused variants masked (``ok``) and their reasons, never raising for one.
+    """
+    refused = link.refused.copy() if link.refused is not None else Refusals(int(np.size(link.scale)))
+    n = refused.n
+    names = list(link.bodies)
+    row = {b: 3 * i for i, b in enumerate(names)}
+    origin = {b: _pos(link.bodies[b].origin) for b in names}
+    ncol = 2 * len(link.joints) + 1
+    nrow = 3 * len(names)
+    A = np.zeros((n, nrow, ncol))
+    scale = np.broadcast_to(np.asarray(link.scale, float), (n,))
+
+    def put(target: np.ndarray, body: str, col: int, f, point, couple=0.0) -> None:
+        if body == GROUND:
+            return
+        r = row[body]
+        f = np.broadcast_to(f, (n, 2))
+        target[:, r, col] += f[:, 0]
+        target[:, r + 1, col] += f[:, 1]
+        target[:, r + 2, col] += _cross(point - origin[body], f) + couple
+
+    zero = np.zeros(2)
+    couple_cols = [ncol - 1]
+    with np.errstate(all="ignore"):
+        for k, j in enumerate(link.joints):
+            c = 2 * k
+            pt = _pos(j.point)
+            if isinstance(j, Prismatic):
+                nrm = _unit(j.axis.v + math.pi / 2)
+                put(A, j.block, c, nrm, pt)
+                put(A, j.guide, c, -nrm, pt)
+                put(A, j.block, c + 1, zero, pt, 1.0)
+                put(A, j.guide, c + 1, zero, pt, -1.0)
+                couple_cols.append(c + 1)
+            else:
+                for axis in (0, 1):
+                    e = np.eye(2)[axis]
+                    put(A, j.b, c + axis, e, pt)
+                    put(A, j.a, c + axis, -e, pt)
+        drv = link.driver
+        if drv.kind == "torque":
+            put(A, drv.body, ncol - 1, zero, origin[drv.body], 1.0)
+        else:
+            jnt = next(j for j in link.joints if j.name == drv.joint)
+            put(A, drv.body, ncol - 1, _unit(jnt.axis.v), _pos(jnt.point))
+            couple_cols.remove(ncol - 1)
+
+        states = body_states(link, an)
+        known = list(_known_forces(link, an, states))
+        group_names = tuple(dict.fromkeys(kf[0] for kf in known))
+        B = np.zeros((n, nrow, len(group_names)))
+        for grp, body, ld, f, tq, _kind, _name in known:
+            p = _where(link, ld) if ld is not None else states[body].g
+            put(B, body, group_names.index(grp), f, p, tq)
+
+        # Unit-free conditioning: moment rows / L, couple columns × L.
+        rs = np.ones((n, nrow))
+        rs[:, 2::3] = 1.0 / scale[:, None]
+        cs = np.ones((n, ncol))
+        cs[:, couple_cols] = scale[:, None]
+        geometry_bad = refused.mask.copy()
+        eye = np.eye(nrow, ncol)
+        systems = np.where(geometry_bad[:, None, None], eye, A * rs[:, :, None] * cs[:, None, :])
+        A_safe = np.where(geometry_bad[:, None, None], eye, A)
+        g = len(group_names)
+        # One factorisation gives the unknowns of every group and the inverse of the unit-free
+        # system (A⁻¹·R⁻¹ = C·S⁻¹ for S = R·A·C), whose norm bounds the condition number.
+        rhs = np.concatenate([B, np.broadcast_to(np.eye(nrow), (n, nrow, nrow)) / rs[:, :, None]], axis=2)
+        try:
+            Y = np.linalg.solve(A_safe, rhs)
+            cond = Conditioning(systems, geometry_bad, Y[:, :, g:] / cs[:, :, None])
+        except np.linalg.LinAlgError:  # an exactly singular system (a toggle): refuse it, then solve
+            Y = None
+            cond = Conditioning(systems, geometry_bad, None)
+        max_cond = np.broadcast_to(np.asarray(an.max_condition, float), (n,))
+        ill = ~geometry_bad & cond.above(max_cond)
+        refused.add(
+            ill,
+            lambda i: (
+                f"the equilibrium equations are singular or nearly so (condition number {cond.at(i):.3g} > "
+                f"{max_cond[i]:.3g}, transmission angle {_at(link.transmission, i):.3g}°): the mechanism "
+                "is at or too near a toggle or dead-centre position for this driver"
+            ),
+        )
+        if Y is None:
+            Y = np.linalg.solve(np.where(refused.mask[:, None, None], eye, A), B)
+        X = -Y[:, :, :g]
+        total = X.sum(axis=-1) if g else np.zeros((n, ncol))
+
+        vw_driver, vw_scale = _virtual_work(link, virtual, an, states, known, n)
+        q = total[:, -1]
+        # Relative to the driver, the work terms and the load level of the whole system (a load at
+        # a fixed pivot does no work but sets the size of the roundoff in every unknown).
+        load_level = np.abs(B * rs[:, :, None]).max(axis=(1, 2)) * scale if B.size else np.zeros(n)
+        if drv.kind == "force":
+            load_level = load_level / scale
+        denom = np.maximum.reduce([np.abs(q), vw_scale, load_level, np.full(n, 1e-300)])
+        residual = np.abs(vw_driver - q) / denom
+    return Solutions(link, an, group_names, X, total, states, vw_driver, residual, cond, refused, ill)
+
+
+def _at(x, i: int) -> float:
+    return float(x[i]) if np.ndim(x) else float(x)
+
+
+def solve(link: Linkage, an: Analysis, virtual: Linkage | None = None) -> Solution:
+    """Solve the equilibrium of one position (floats); see `solve_many`.
+
+    Raises:
+        GeometryError: the position cannot be assembled.
+        ConditioningError: the system's condition number exceeds ``an.max_condition``.
+        ValueError: the input speed is zero and no unit-speed *virtual* linkage was given.
+    """
+    if virtual is None and not float(np.asarray(link.bodies[link.input_body].angle.d)):
+        raise ValueError("a virtual-work check at zero input speed needs a unit-speed linkage")
+    return solve_many(link, an, virtual).at(0)
+
+
+def _virtual_work(link: Linkage, virtual: Linkage | None, an: Analysis, states, known, n: int):
+    """Driver value from the power balance, and the scale of the terms (for a relative residual).
+
+    Velocities come from *link* divided by its input speed, or, where that speed is zero, from
+    the unit-speed *virtual* linkage.
+    """
+    speed = np.broadcast_to(np.asarray(link.bodies[link.input_body].angle.d, float), (n,))
+    moving = speed != 0
+    out_q, out_s = np.full(n, math.nan), np.full(n, math.inf)
+    sources = [(link, np.where(moving, 1.0 / np.where(moving, speed, 1.0), 0.0), moving, states)]
+    if virtual is not None and not moving.all():
+        sources.append((virtual, np.ones(n), ~moving, body_states(virtual, an)))
+    for virt, ratio, use, vstates in sources:
+        total = np.zeros(n)
+        size = np.zeros(n)
+        for _grp, body, ld, f, tq, _kind, _name in known:
+            b = virt.bodies[body]
+            v = _vel(load_point(virt, ld.body, ld.at, ld.along, ld.across)) if ld is not None else vstates[body].v_g
+            t = (np.sum(np.broadcast_to(f, (n, 2)) * np.broadcast_to(v, (n, 2)), axis=-1) + tq * b.angle.d) * ratio
+            total = total + t
+            size = size + np.abs(t)
+        drv = virt.driver
+        if drv.kind == "torque":
+            vd = virt.bodies[drv.body].angle.d * ratio
+        else:
+            jnt = next(j for j in virt.joints if j.name == drv.joint)
+            vd = np.sum(_vel(jnt.point) * _unit(jnt.axis.v), axis=-1) * ratio
+        vd = np.broadcast_to(vd, (n,))
+        fine = use & (np.abs(vd) >= 1e-12)
+        safe = np.where(fine, vd, 1.0)
+        out_q = np.where(fine, -total / safe, out_q)
+        out_s = np.where(fine, size / np.abs(safe), out_s)
+    return out_q, out_s
 
 
 def _offset_force(name: str, body: str, point: np.ndarray, f: np.ndarray, couple: float, kind: str) -> AppliedForce:

@@ -68,6 +68,20 @@ class Jet:
         return Jet(f0, f1 * self.d, f2 * self.d**2 + f1 * self.dd)
 
 
+def where(mask, a: Jet, b: Jet) -> Jet:
+    """Elementwise choice between two jets (batched branches): *a* where *mask*, else *b*."""
+    return Jet(np.where(mask, a.v, b.v), np.where(mask, a.d, b.d), np.where(mask, a.dd, b.dd))
+
+
+def _take(x, i: int) -> float:
+    return float(x[i]) if np.ndim(x) else float(x)
+
+
+def take(x: Jet, i: int) -> Jet:
+    """Variant *i* of a batched jet, as a scalar jet."""
+    return Jet(_take(x.v, i), _take(x.d, i), _take(x.dd, i))
+
+
 def sin(x: Jet | float) -> Jet:
     x = Jet.lift(x)
     s, c = np.sin(x.v), np.cos(x.v)
@@ -141,6 +155,10 @@ class P:
     def rotate(self, angle: Jet | float) -> P:
         c, s = cos(angle), sin(angle)
         return P(self.x * c - self.y * s, self.x * s + self.y * c)
+
+    def take(self, i: int) -> P:
+        """Variant *i* of a batched point."""
+        return P(take(self.x, i), take(self.y, i))
 
     def pos(self) -> np.ndarray:
         return np.array([self.x.v, self.y.v], dtype=float)

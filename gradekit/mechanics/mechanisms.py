@@ -1,25 +1,27 @@
-"""Closed-form position solutions of the course's mechanisms, evaluated on jets.
+"""Closed-form position solutions of the course's mechanisms, evaluated on jets, batched.
 
-Each builder takes SI parameters and the input motion (crank angle, speed, acceleration) and
-returns a `Linkage`: every body's frame and every named point with exact velocity and
-acceleration. Branches are explicit: ``branch=+1`` puts the closing point on the left of the
-directed line between the two known points (for a four-bar with the frame along +x and the crank
-above it, the *open* configuration), ``-1`` on the right (*crossed*). For sliders, ``+1`` puts the
-slider ahead of the driving pin along the slide axis.
+Each builder takes SI parameters and the input motion (crank angle, speed, acceleration) as
+floats or as arrays with one entry per variant, and returns a `Linkage`: every body's frame and
+every named point with exact velocity and acceleration, for all variants at once. Branches are
+explicit: ``branch=+1`` puts the closing point on the left of the directed line between the two
+known points (for a four-bar with the frame along +x and the crank above it, the *open*
+configuration), ``-1`` on the right (*crossed*). For sliders, ``+1`` puts the slider ahead of the
+driving pin along the slide axis. A variant that cannot be assembled is not an exception but an
+entry of the linkage's `Refusals` (a mask and a message per variant); `build` raises for N = 1.
 """
 
 from __future__ import annotations
 
-import math
+import functools
 from collections.abc import Callable
 from dataclasses import dataclass
 from functools import partial
 
 import numpy as np
 
-from gradekit.errors import GeometryError
-from gradekit.mechanics.jet import Jet, P, atan2, sqrt
-from gradekit.mechanics.model import GROUND, Body, Driver, Linkage, Prismatic, Revolute
+from gradekit.mechanics.errors import GeometryError
+from gradekit.mechanics.jet import Jet, P, atan2, sqrt, where
+from gradekit.mechanics.model import GROUND, Body, Driver, Linkage, Prismatic, Refusals, Revolute
 
 Fmt = Callable[[float], str]
 
@@ -28,92 +30,106 @@ def _mm(x: float) -> str:
     return f"{x * 1000:.6g} mm"
 
 
+def _at(x, i: int) -> float:
+    return float(x[i]) if np.ndim(x) else float(x)
+
+
 @dataclass(frozen=True)
 class Motion:
-    """Input crank angle (rad), angular velocity (rad/s) and angular acceleration (rad/s²)."""
+    """Input crank angle (rad), angular velocity (rad/s) and angular acceleration (rad/s²).
 
-    theta: float
-    omega: float = 0.0
-    alpha: float = 0.0
+    Each is a float or an array with one entry per variant.
+    """
+
+    theta: float | np.ndarray
+    omega: float | np.ndarray = 0.0
+    alpha: float | np.ndarray = 0.0
 
     def jet(self) -> Jet:
         return Jet(self.theta, self.omega, self.alpha)
 
 
-def circle_point(p1: P, r1: float, p2: P, r2: float, branch: int, names: str, fmt: Fmt) -> P:
+def circle_point(p1: P, r1, p2: P, r2, branch, names: str, fmt: Fmt, bad: Refusals) -> P:
     """The point at *r1* from *p1* and *r2* from *p2*, on the *branch* side of p1→p2."""
     s = p2 - p1
     dist = s.norm()
-    lo, hi = abs(r1 - r2), r1 + r2
-    if not (lo * (1 - 1e-12) <= dist.v <= hi * (1 + 1e-12)):
-        raise GeometryError(
-            f"cannot be assembled: {names} are {fmt(r1)} and {fmt(r2)}, so the distance they "
-            f"span must lie between {fmt(lo)} and {fmt(hi)}, but it is {fmt(float(dist.v))}"
-        )
+    lo, hi = np.abs(r1 - r2), r1 + r2
+    bad.add(
+        ~((lo * (1 - 1e-12) <= dist.v) & (dist.v <= hi * (1 + 1e-12))),
+        lambda i: (
+            f"cannot be assembled: {names} are {fmt(_at(r1, i))} and {fmt(_at(r2, i))}, so the distance "
+            f"they span must lie between {fmt(_at(lo, i))} and {fmt(_at(hi, i))}, but it is "
+            f"{fmt(_at(dist.v, i))}"
+        ),
+    )
     num = s.dot(s) + r1 * r1 - r2 * r2
     den = dist * (2 * r1)
-    half = sqrt(Jet.lift(den * den - num * num) if (den * den - num * num).v > 0 else Jet(0.0))
+    disc = den * den - num * num
+    # at the exact toggle the half-chord's rate is undefined (0/0): NaN, refused as a toggle below
+    half = where(disc.v > 0, sqrt(disc), sqrt(Jet(0.0)))
     gamma = atan2(half, num)
     angle = s.angle() + gamma * branch
     return p1 + P.polar(r1, angle)
 
 
-def slide_point(pin: P, length: float, origin: P, axis: float, offset: float, branch: int, names: str, fmt: Fmt) -> P:
+def slide_point(pin: P, length, origin: P, axis, offset, branch, names: str, fmt: Fmt, bad: Refusals) -> P:
     """The point at *length* from *pin* on the line at *axis* through *origin* + *offset* (left normal)."""
-    u = P.fixed(math.cos(axis), math.sin(axis))
-    n = P.fixed(-math.sin(axis), math.cos(axis))
+    u = P.fixed(np.cos(axis), np.sin(axis))
+    n = P.fixed(-np.sin(axis), np.cos(axis))
     rel = pin - origin
     along_ = rel.dot(u)
     across = rel.dot(n) * -1 + offset
     disc = across * across * -1 + length * length
-    if disc.v < -1e-12 * length * length:
-        raise GeometryError(
-            f"cannot be assembled: {names} is {fmt(length)} long but the slide line lies "
-            f"{fmt(abs(float(across.v)))} from its pin"
-        )
-    root = sqrt(disc) if disc.v > 0 else Jet(0.0)
+    bad.add(
+        disc.v < -1e-12 * length * length,
+        lambda i: (
+            f"cannot be assembled: {names} is {fmt(_at(length, i))} long but the slide line lies "
+            f"{fmt(abs(_at(across.v, i)))} from its pin"
+        ),
+    )
+    root = where(disc.v > 0, sqrt(disc), Jet(0.0))
     x = along_ + root * branch
     return origin + u * x + n * offset
 
 
-def _acute(a: P, b: P) -> float:
+def _acute(a: P, b: P):
     """Acute angle in degrees between the lines of two vectors."""
-    ang = abs(math.degrees(float(a.angle().v - b.angle().v))) % 180.0
-    return min(ang, 180.0 - ang)
+    ang = np.abs(np.degrees(a.angle().v - b.angle().v)) % 180.0
+    return np.minimum(ang, 180.0 - ang)
 
 
 def _rev(name: str, a: str, b: str, pts: dict[str, P]) -> Revolute:
     return Revolute(name, a, b, pts[name])
 
 
-def single_crank(p: dict, m: Motion, branch: int = 1, fmt: Fmt = _mm) -> Linkage:
+def _largest(lengths: dict):
+    return functools.reduce(np.maximum, [np.abs(v) for v in lengths.values()])
+
+
+def _o2(p: dict) -> P:
+    return P.fixed(p.get("x_O2", 0.0), p.get("y_O2", 0.0))
+
+
+def single_crank(p: dict, m: Motion, branch: int, fmt: Fmt, bad: Refusals) -> Linkage:
     """One link O2A pinned to the frame and driven: the inertia of a single link (slides 002)."""
-    o2 = P.fixed(p.get("x_O2", 0.0), p.get("y_O2", 0.0))
+    o2 = _o2(p)
     th = m.jet()
     pts = {"O2": o2, "A": o2 + P.polar(p["crank"], th)}
     bodies = {"crank": Body("crank", o2, th)}
+    lengths = {"crank": p["crank"]}
     return Linkage(
-        "crank",
-        bodies,
-        (_rev("O2", GROUND, "crank", pts),),
-        pts,
-        Driver("crank"),
-        "crank",
-        90.0,
-        p["crank"],
-        {"crank": p["crank"]},
+        "crank", bodies, (_rev("O2", GROUND, "crank", pts),), pts, Driver("crank"), "crank", 90.0, p["crank"], lengths
     )
 
 
-def fourbar(p: dict, m: Motion, branch: int = 1, fmt: Fmt = _mm) -> Linkage:
+def fourbar(p: dict, m: Motion, branch: int, fmt: Fmt, bad: Refusals) -> Linkage:
     """Four-bar O2-A-B-O4: crank O2A driven, coupler AB, rocker O4B, frame O2O4 at any angle."""
-    o2 = P.fixed(p.get("x_O2", 0.0), p.get("y_O2", 0.0))
-    o4 = o2 + P.fixed(
-        p["frame"] * math.cos(p.get("frame_angle", 0.0)), p["frame"] * math.sin(p.get("frame_angle", 0.0))
-    )
+    o2 = _o2(p)
+    fa = p.get("frame_angle", 0.0)
+    o4 = o2 + P.fixed(p["frame"] * np.cos(fa), p["frame"] * np.sin(fa))
     th = m.jet()
     a = o2 + P.polar(p["crank"], th)
-    b = circle_point(a, p["coupler"], o4, p["rocker"], branch, "coupler AB and rocker O4B", fmt)
+    b = circle_point(a, p["coupler"], o4, p["rocker"], branch, "coupler AB and rocker O4B", fmt, bad)
     pts = {"O2": o2, "A": a, "B": b, "O4": o4}
     bodies = {
         "crank": Body("crank", o2, th),
@@ -128,22 +144,18 @@ def fourbar(p: dict, m: Motion, branch: int = 1, fmt: Fmt = _mm) -> Linkage:
     )
     lengths = {k: p[k] for k in ("crank", "coupler", "rocker", "frame")}
     return Linkage(
-        "fourbar", bodies, joints, pts, Driver("crank"), "crank", _acute(b - a, b - o4), max(lengths.values()), lengths
+        "fourbar", bodies, joints, pts, Driver("crank"), "crank", _acute(b - a, b - o4), _largest(lengths), lengths
     )
 
 
-def _ram(pts: dict, pin: str, p: dict, origin: P, branch: int, fmt: Fmt, rod: str) -> P:
-    axis = p.get("slide_angle", 0.0)
-    return slide_point(pts[pin], p[rod], origin, axis, p.get("offset", 0.0), branch, f"the {rod} from {pin}", fmt)
-
-
-def slider_crank(p: dict, m: Motion, branch: int = 1, fmt: Fmt = _mm, driver: str = "crank") -> Linkage:
+def slider_crank(p: dict, m: Motion, branch: int, fmt: Fmt, bad: Refusals, driver: str = "crank") -> Linkage:
     """Slider crank O2-A-B: crank O2A, rod AB, slider B on a line at ``slide_angle`` offset by ``offset``."""
-    o2 = P.fixed(p.get("x_O2", 0.0), p.get("y_O2", 0.0))
+    o2 = _o2(p)
     th = m.jet()
     pts = {"O2": o2, "A": o2 + P.polar(p["crank"], th)}
-    pts["B"] = _ram(pts, "A", p, o2, branch, fmt, "rod")
-    axis = Jet(p.get("slide_angle", 0.0))
+    axis_v = p.get("slide_angle", 0.0)
+    pts["B"] = slide_point(pts["A"], p["rod"], o2, axis_v, p.get("offset", 0.0), branch, "the rod from A", fmt, bad)
+    axis = Jet(axis_v)
     bodies = {
         "crank": Body("crank", o2, th),
         "rod": Body("rod", pts["A"], (pts["B"] - pts["A"]).angle()),
@@ -158,29 +170,20 @@ def slider_crank(p: dict, m: Motion, branch: int = 1, fmt: Fmt = _mm, driver: st
     drv = Driver("crank") if driver == "crank" else Driver("slider", "force", "slide")
     u = P.polar(1.0, axis)
     lengths = {k: p[k] for k in ("crank", "rod")}
-    return Linkage(
-        "slider_crank",
-        bodies,
-        joints,
-        pts,
-        drv,
-        "crank",
-        90.0 - _acute(pts["B"] - pts["A"], u),
-        max(lengths.values()),
-        lengths,
-    )
+    mu = 90.0 - _acute(pts["B"] - pts["A"], u)
+    return Linkage("slider_crank", bodies, joints, pts, drv, "crank", mu, _largest(lengths), lengths)
 
 
-def _slotted(p: dict, m: Motion) -> tuple[dict, dict, list]:
-    o2 = P.fixed(p.get("x_O2", 0.0), p.get("y_O2", 0.0))
-    fa = p.get("frame_angle", -math.pi / 2)
-    o4 = o2 + P.fixed(p["frame"] * math.cos(fa), p["frame"] * math.sin(fa))
+def _slotted(p: dict, m: Motion, bad: Refusals) -> tuple[dict, dict, list]:
+    o2 = _o2(p)
+    fa = p.get("frame_angle", -np.pi / 2)
+    o4 = o2 + P.fixed(p["frame"] * np.cos(fa), p["frame"] * np.sin(fa))
     th = m.jet()
     a = o2 + P.polar(p["crank"], th)
-    if abs(p["frame"] - p["crank"]) < 1e-9 * max(p["frame"], p["crank"]):
-        raise GeometryError(
-            "cannot be assembled: the crank pin passes through the lever pivot (crank = frame distance O2O4)"
-        )
+    bad.add(
+        np.abs(p["frame"] - p["crank"]) < 1e-9 * np.maximum(p["frame"], p["crank"]),
+        lambda i: "cannot be assembled: the crank pin passes through the lever pivot (crank = frame distance O2O4)",
+    )
     lever_angle = (a - o4).angle()
     pts = {"O2": o2, "A": a, "O4": o4, "C": o4 + P.polar(p["lever"], lever_angle)}
     bodies = {
@@ -197,67 +200,62 @@ def _slotted(p: dict, m: Motion) -> tuple[dict, dict, list]:
     return pts, bodies, joints
 
 
-def slotted_lever(p: dict, m: Motion, branch: int = 1, fmt: Fmt = _mm) -> Linkage:
+def slotted_lever(p: dict, m: Motion, branch: int, fmt: Fmt, bad: Refusals) -> Linkage:
     """Crank and slotted lever (inverted slider crank): a block on crank pin A slides in lever O4C."""
-    pts, bodies, joints = _slotted(p, m)
+    pts, bodies, joints = _slotted(p, m, bad)
     lengths = {k: p[k] for k in ("crank", "frame", "lever")}
     return Linkage(
-        "slotted_lever", bodies, tuple(joints), pts, Driver("crank"), "crank", 90.0, max(lengths.values()), lengths
+        "slotted_lever", bodies, tuple(joints), pts, Driver("crank"), "crank", 90.0, _largest(lengths), lengths
     )
 
 
-def _add_ram(pts: dict, bodies: dict, joints: list, p: dict, origin: P, branch: int, fmt: Fmt) -> float:
+def _add_ram(pts: dict, bodies: dict, joints: list, p: dict, carrier: str, branch, fmt: Fmt, bad: Refusals):
     """Attach link C-D and ram D (sliding on ground) to point C; return the ram transmission angle."""
-    axis = Jet(p.get("slide_angle", 0.0))
-    pts["D"] = slide_point(pts["C"], p["link"], origin, axis.v, p["ram_offset"], branch, "the link CD", fmt)
+    axis_v = p.get("slide_angle", 0.0)
+    axis = Jet(axis_v)
+    pts["D"] = slide_point(pts["C"], p["link"], pts["O4"], axis_v, p["ram_offset"], branch, "the link CD", fmt, bad)
     bodies["link"] = Body("link", pts["C"], (pts["D"] - pts["C"]).angle())
     bodies["ram"] = Body("ram", pts["D"], axis)
     joints += [
-        _rev("C", "lever", "link", pts),
+        _rev("C", carrier, "link", pts),
         _rev("D", "link", "ram", pts),
         Prismatic("ram_slide", GROUND, "ram", pts["D"], axis),
     ]
     return 90.0 - _acute(pts["D"] - pts["C"], P.polar(1.0, axis))
 
 
-def quick_return(p: dict, m: Motion, branch: int = 1, fmt: Fmt = _mm, kind: str = "whitworth") -> Linkage:
+def quick_return(p: dict, m: Motion, branch: int, fmt: Fmt, bad: Refusals, kind: str = "whitworth") -> Linkage:
     """Whitworth (frame < crank, lever turns fully) or crank-shaper (frame > crank, lever rocks):
     slotted lever O4C, link CD and ram D on a slide line ``ram_offset`` from O4."""
-    if kind == "whitworth" and not p["frame"] < p["crank"]:
-        raise GeometryError(
-            f"not a Whitworth mechanism: the frame O2O4 ({fmt(p['frame'])}) must "
-            f"be shorter than the crank ({fmt(p['crank'])})"
+    if kind == "whitworth":
+        bad.add(
+            ~(np.asarray(p["frame"]) < p["crank"]),
+            lambda i: (
+                f"not a Whitworth mechanism: the frame O2O4 ({fmt(_at(p['frame'], i))}) must "
+                f"be shorter than the crank ({fmt(_at(p['crank'], i))})"
+            ),
         )
-    if kind == "crank_shaper" and not p["frame"] > p["crank"]:
-        raise GeometryError(
-            f"not a crank-shaper: the frame O2O4 ({fmt(p['frame'])}) must be longer than the crank ({fmt(p['crank'])})"
+    else:
+        bad.add(
+            ~(np.asarray(p["frame"]) > p["crank"]),
+            lambda i: (
+                f"not a crank-shaper: the frame O2O4 ({fmt(_at(p['frame'], i))}) must be longer than "
+                f"the crank ({fmt(_at(p['crank'], i))})"
+            ),
         )
-    pts, bodies, joints = _slotted(p, m)
-    mu = _add_ram(pts, bodies, joints, p, pts["O4"], branch, fmt)
+    pts, bodies, joints = _slotted(p, m, bad)
+    mu = _add_ram(pts, bodies, joints, p, "lever", branch, fmt, bad)
     lengths = {k: p[k] for k in ("crank", "frame", "lever", "link")}
-    return Linkage(
-        kind, bodies, tuple(joints), pts, Driver("crank"), "crank", mu, max(abs(v) for v in lengths.values()), lengths
-    )
+    return Linkage(kind, bodies, tuple(joints), pts, Driver("crank"), "crank", mu, _largest(lengths), lengths)
 
 
-def fourbar_quick_return(p: dict, m: Motion, branch: int = 1, fmt: Fmt = _mm) -> Linkage:
+def fourbar_quick_return(p: dict, m: Motion, branch: int, fmt: Fmt, bad: Refusals) -> Linkage:
     """Crank-rocker four-bar whose rocker, extended to C (``arm`` from O4), drives a ram through link CD."""
-    base = fourbar(p, m, branch, fmt)
+    base = fourbar(p, m, branch, fmt, bad)
     pts, bodies, joints = dict(base.points), dict(base.bodies), list(base.joints)
     rocker = bodies["rocker"]
     pts["C"] = rocker.origin + P.polar(p["arm"], rocker.angle)
-    axis = Jet(p.get("slide_angle", 0.0))
-    pts["D"] = slide_point(
-        pts["C"], p["link"], pts["O4"], axis.v, p["ram_offset"], p.get("ram_branch", 1), "the link CD", fmt
-    )
-    bodies["link"] = Body("link", pts["C"], (pts["D"] - pts["C"]).angle())
-    bodies["ram"] = Body("ram", pts["D"], axis)
-    joints += [
-        _rev("C", "rocker", "link", pts),
-        _rev("D", "link", "ram", pts),
-        Prismatic("ram_slide", GROUND, "ram", pts["D"], axis),
-    ]
-    mu = min(base.transmission, 90.0 - _acute(pts["D"] - pts["C"], P.polar(1.0, axis)))
+    mu = _add_ram(pts, bodies, joints, p, "rocker", p.get("ram_branch", 1), fmt, bad)
     lengths = dict(base.lengths, arm=p["arm"], link=p["link"])
     return Linkage(
         "fourbar_quick_return",
@@ -266,14 +264,10 @@ def fourbar_quick_return(p: dict, m: Motion, branch: int = 1, fmt: Fmt = _mm) ->
         pts,
         Driver("crank"),
         "crank",
-        mu,
-        max(abs(v) for v in lengths.values()),
+        np.minimum(base.transmission, mu),
+        _largest(lengths),
         lengths,
     )
-
-
-def _quick_return_kind(p: dict, m: Motion, branch: int = 1, fmt: Fmt = _mm, *, kind: str) -> Linkage:
-    return quick_return(p, m, branch, fmt, kind)
 
 
 @dataclass(frozen=True)
@@ -309,15 +303,15 @@ KINDS: dict[str, Kind] = {
     "slotted_lever": Kind(
         slotted_lever,
         ("crank", "frame", "lever"),
-        {**_POS, "frame_angle": -math.pi / 2},
+        {**_POS, "frame_angle": -np.pi / 2},
         ("crank", "block", "lever"),
         ("O2", "A", "O4", "C"),
     ),
     **{
         name: Kind(
-            partial(_quick_return_kind, kind=name),
+            partial(quick_return, kind=name),
             ("crank", "frame", "lever", "link", "ram_offset"),
-            {**_POS, "frame_angle": -math.pi / 2, "slide_angle": 0.0},
+            {**_POS, "frame_angle": -np.pi / 2, "slide_angle": 0.0},
             ("crank", "block", "lever", "link", "ram"),
             ("O2", "A", "O4", "C", "D"),
         )
@@ -333,20 +327,48 @@ KINDS: dict[str, Kind] = {
 }
 
 
-def build(kind: str, params: dict, motion: Motion, branch: int = 1, fmt: Fmt = _mm, driver: str = "crank") -> Linkage:
-    """Build one position of mechanism *kind*; raises `GeometryError` when it cannot assemble."""
+def build_many(
+    kind: str,
+    params: dict,
+    motion: Motion,
+    branch: int = 1,
+    fmt: Fmt = _mm,
+    driver: str = "crank",
+    n: int | None = None,
+) -> Linkage:
+    """Build mechanism *kind* for every variant at once (parameters and motion: floats or arrays).
+
+    Variants that cannot be assembled, or whose motion is undefined (a toggle), are refused in
+    the returned linkage's ``refused`` (mask and reasons); their numbers are meaningless.
+    """
     spec = KINDS[kind]
     full = {**spec.optional, **params}
+    if n is None:
+        n = int(np.broadcast(*(np.asarray(v) for v in (*full.values(), motion.theta, motion.omega, motion.alpha))).size)
+    bad = Refusals(n)
     with np.errstate(all="ignore"):
         if kind == "slider_crank":
-            link = slider_crank(full, motion, branch, fmt, driver)
+            link = slider_crank(full, motion, branch, fmt, bad, driver)
         else:
-            link = spec.build(full, motion, branch, fmt)
-    for name, pt in link.points.items():
-        vals = (pt.x.v, pt.y.v, pt.x.d, pt.y.d, pt.x.dd, pt.y.dd)
-        if not all(math.isfinite(float(v)) for v in vals):
-            raise GeometryError(
-                f"at a limit (toggle) position: the motion of point {name} is "
-                "not defined there; choose another crank angle"
+            link = spec.build(full, motion, branch, fmt, bad)
+        for name, pt in link.points.items():
+            finite = np.ones(n, bool)
+            for c in (pt.x, pt.y):
+                for v in (c.v, c.d, c.dd):
+                    finite &= np.isfinite(v)
+            bad.add(
+                ~finite,
+                lambda i, name=name: (
+                    f"at a limit (toggle) position: the motion of point {name} is not defined there; "
+                    "choose another crank angle"
+                ),
             )
-    return link
+    return link.with_refusals(bad)
+
+
+def build(kind: str, params: dict, motion: Motion, branch: int = 1, fmt: Fmt = _mm, driver: str = "crank") -> Linkage:
+    """Build one position of mechanism *kind* (scalar parameters); raises `GeometryError`."""
+    link = build_many(kind, params, motion, branch, fmt, driver, n=1)
+    if link.refused.mask[0]:
+        raise GeometryError(link.refused.reason(0))
+    return link.take(0)

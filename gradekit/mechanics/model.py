@@ -1,18 +1,36 @@
-"""Frozen records of one mechanism position: bodies, joints, driver, loads and mass properties.
+"""Frozen records of mechanism positions: bodies, joints, driver, loads and mass properties.
 
+A record holds one variant (floats) or many (arrays with one entry per variant, the batch axis
+first); the topology (which joint touches which body) is the same for every variant of a batch.
 Conventions: SI units (m, kg, s, N, rad) inside the core; angles CCW from +x; torques and
 angular rates CCW positive; a revolute joint's unknown is the force of body ``a`` on body ``b``.
 """
 
 from __future__ import annotations
 
+import dataclasses
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from gradekit.mechanics.jet import Jet, P
+from gradekit.mechanics.jet import Jet, P, take
 
 GROUND = "ground"
+
+
+class Batched:
+    """A batch of variants with a ``refused: Refusals`` field: its size and its accepted mask."""
+
+    refused: Refusals
+
+    @property
+    def n(self) -> int:
+        return self.refused.n
+
+    @property
+    def ok(self) -> np.ndarray:
+        return ~self.refused.mask
 
 
 @dataclass(frozen=True)
@@ -53,6 +71,55 @@ class Prismatic:
 Joint = Revolute | Prismatic
 
 
+def _take(x, i: int):
+    return float(x[i]) if np.ndim(x) else float(x)
+
+
+def take_joint(j: Joint, i: int) -> Joint:
+    if isinstance(j, Prismatic):
+        return Prismatic(j.name, j.guide, j.block, j.point.take(i), take(j.axis, i))
+    return Revolute(j.name, j.a, j.b, j.point.take(i))
+
+
+class Refusals:
+    """Which variants of a batch are refused, and why (the first reason found for each).
+
+    ``mask[i]`` is True for a refused variant; ``reason(i)`` formats its message (lazily: the
+    messages of a large batch are only written for the variants someone asks about).
+    """
+
+    def __init__(self, n: int) -> None:
+        self.n = n
+        self.mask = np.zeros(n, bool)
+        self._checks: list[tuple[np.ndarray, Callable[[int], str]]] = []
+
+    def add(self, bad, message: Callable[[int], str]) -> None:
+        """Refuse the variants where *bad* holds (and that are not refused already)."""
+        new = np.broadcast_to(np.asarray(bad, bool), (self.n,)) & ~self.mask
+        if new.any():
+            self._checks.append((new, message))
+            self.mask |= new
+
+    def reason(self, i: int) -> str:
+        for bad, message in self._checks:
+            if bad[i]:
+                return message(i)
+        return ""
+
+    def copy(self) -> Refusals:
+        out = Refusals(self.n)
+        out.mask = self.mask.copy()
+        out._checks = list(self._checks)
+        return out
+
+    def take(self, i: int) -> Refusals:
+        out = Refusals(1)
+        for bad, message in self._checks:
+            if bad[i]:
+                out.add(True, lambda _j, m=message: m(i))
+        return out
+
+
 @dataclass(frozen=True)
 class Driver:
     """What balances the loads: a torque on *body* or a force along prismatic joint *joint*."""
@@ -80,6 +147,25 @@ class Linkage:
     transmission: float
     scale: float
     lengths: dict[str, float] = field(default_factory=dict)
+    refused: Refusals | None = None
+
+    def with_refusals(self, refused: Refusals) -> Linkage:
+        return dataclasses.replace(self, refused=refused)
+
+    def take(self, i: int) -> Linkage:
+        """Variant *i* of a batched linkage, with float jets."""
+        return Linkage(
+            self.kind,
+            {n: Body(b.name, b.origin.take(i), take(b.angle, i), b.label) for n, b in self.bodies.items()},
+            tuple(take_joint(j, i) for j in self.joints),
+            {n: p.take(i) for n, p in self.points.items()},
+            self.driver,
+            self.input_body,
+            _take(self.transmission, i),
+            _take(self.scale, i),
+            {k: _take(v, i) for k, v in self.lengths.items()},
+            self.refused.take(i) if self.refused is not None else None,
+        )
 
 
 @dataclass(frozen=True)
@@ -126,6 +212,31 @@ class Analysis:
     mass: dict[str, MassProps] = field(default_factory=dict)
     loads: tuple[Load, ...] = ()
     max_condition: float = 1e7
+
+    def take(self, i: int) -> Analysis:
+        """Variant *i* of a batched analysis."""
+        return Analysis(
+            self.dynamic,
+            None if self.gravity is None else (_take(self.gravity[0], i), _take(self.gravity[1], i)),
+            {
+                b: MassProps(_take(m.mass, i), _take(m.inertia, i), m.at, _take(m.along, i), _take(m.across, i))
+                for b, m in self.mass.items()
+            },
+            tuple(
+                Load(
+                    ld.group,
+                    ld.body,
+                    (_take(ld.force[0], i), _take(ld.force[1], i)),
+                    _take(ld.torque, i),
+                    ld.at,
+                    _take(ld.along, i),
+                    _take(ld.across, i),
+                    ld.relative_angle,
+                )
+                for ld in self.loads
+            ),
+            _take(self.max_condition, i),
+        )
 
 
 def vec(p: np.ndarray) -> tuple[float, float]:
