@@ -140,6 +140,26 @@ def student_variant(asg: Assignment, item: Item, student_id: str, redraw: int = 
         ) from None
 
 
+def sheet_variant(
+    assignment: Path | str, problem: str, student: str, manifest: Path | str | None = None, bank=None
+) -> Variant:
+    """The variant *student*'s sheet of *assignment* printed for *problem* (an item label or bank id).
+
+    Course and salt come from the assignment, the re-draw counter from the generation's
+    *manifest* when given (it records the class de-duplication), else from the assignment's
+    ``redraws:``.
+    """
+    asg = load_assignment(assignment, bank)
+    item = next((it for it in asg.items if problem in (it.label, it.problem.id)), None)
+    if item is None:
+        choices = ", ".join(f"{it.label} ({it.problem.id})" for it in asg.items)
+        raise GradekitError(f"expected a problem of the assignment ({choices}), got {problem!r}", path=asg.path)
+    redraw = asg.redraws.get(student, {}).get(item.label, 0)
+    if manifest is not None:
+        redraw = redraws_from_manifest(Path(manifest)).get(student, {}).get(item.label, redraw)
+    return student_variant(asg, item, student, redraw)
+
+
 def keys_for(asg: Assignment, item: Item, student_id: str, v: Variant, with_mistakes: bool = True) -> list[KeyEntry]:
     """The key entries of one item for one student; points of the item shared by answer points."""
     answers = v.result.answers

@@ -46,6 +46,32 @@ def _variant(problem, published: bool, student: str | None, seed: int | None, co
     return variant(problem, course=course, salt=salt, student=student, seed=seed, redraw=redraw)
 
 
+def _assignment_opts(f):
+    f = click.option("--manifest", type=click.Path(dir_okay=False, exists=True), default=None,
+                     help="The manifest.json of generate: the student's re-draws as printed.")(f)
+    return click.option("--assignment", type=click.Path(dir_okay=False, exists=True), default=None,
+                        help="With --student: the values on that student's sheet of this assignment "
+                        "(its course and salt).")(f)
+
+
+def _student_variant(problem, published, student, seed, course, salt, redraw, bank, assignment, manifest):
+    """The variant to show: a student's sheet of --assignment, or values drawn from course and salt."""
+    from gradekit.bank.registry import resolve
+
+    if assignment is None:
+        if manifest is not None:
+            raise click.UsageError("--manifest goes with --assignment")
+        if student is not None:
+            click.echo(f"note: values drawn for course {course!r}, salt {salt!r}, not any assignment's sheet; "
+                       "give --assignment FILE for the student's sheet", err=True)
+        return _variant(resolve(problem, bank), published, student, seed, course, salt, redraw)
+    if student is None or published or seed is not None or redraw:
+        raise click.UsageError("--assignment goes with --student only (course, salt and re-draws come from it)")
+    from gradekit.assignment import sheet_variant
+
+    return sheet_variant(assignment, problem, student, manifest, bank)
+
+
 _bank_opt = click.option(
     "--bank",
     type=click.Path(file_okay=False),
@@ -69,6 +95,7 @@ _bank_opt = click.option(
 )
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
 @_bank_opt
+@_assignment_opts
 def solve(
     problem: str,
     published: bool,
@@ -79,12 +106,13 @@ def solve(
     salt: str,
     as_json: bool,
     bank: str | None,
+    assignment: str | None,
+    manifest: str | None,
 ) -> None:
     """Solve PROBLEM (a bank id or a YAML path) and print parameters, intermediate values and answers."""
     from gradekit import report
-    from gradekit.bank.registry import resolve
 
-    v = _variant(resolve(problem, bank), published, student, seed, course, salt, redraw)
+    v = _student_variant(problem, published, student, seed, course, salt, redraw, bank, assignment, manifest)
     if as_json:
         click.echo(json.dumps(report.as_json(v.result), indent=2))
     else:
@@ -130,13 +158,14 @@ def bank_list(as_json: bool, bank: str | None) -> None:
 @click.option("--course", default="MEG373", show_default=True)
 @click.option("--salt", default="")
 @_bank_opt
-def bank_show(problem: str, student: str | None, course: str, salt: str, bank: str | None) -> None:
+@_assignment_opts
+def bank_show(problem: str, student: str | None, course: str, salt: str, bank: str | None,
+              assignment: str | None, manifest: str | None) -> None:
     """Show a problem's statement with the published or a student's values, and its answers."""
     from gradekit import report
-    from gradekit.bank.registry import resolve
     from gradekit.statement import render_statement
 
-    v = _variant(resolve(problem, bank), False, student, None, course, salt)
+    v = _student_variant(problem, False, student, None, course, salt, 0, bank, assignment, manifest)
     click.echo(render_statement(v.problem, v.values))
     click.echo()
     click.echo(report.as_text(v.result))

@@ -1,0 +1,173 @@
+"""Feedback, reports and LMS exports as written to disk: exactly true, never a key handed out.
+
+Every check reads the files `grade_batch` writes (feedback Markdown/HTML, report.md, canvas.csv,
+moodle.csv, histogram.png) or what the CLI prints.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import re
+from pathlib import Path
+
+import pytest
+from click.testing import CliRunner
+
+from gradekit.cli import main
+from gradekit.grading import grade_batch
+from gradekit.keys import KeyEntry, Tolerance
+from gradekit.roster import Student
+
+ROOT = Path(__file__).resolve().parents[1]
+ANGLE = Tolerance("relative", rel=0.0, abs=0.5, period=360.0)
+REL = Tolerance("relative", rel=0.02)
+
+
+def _keys(sid: str, angle: float, force: float) -> list[KeyEntry]:
+    return [
+        KeyEntry(sid, "p1", "p1.dir", angle, "deg", ANGLE, 1.0, "direction of F", "degrees CCW from +x"),
+        KeyEntry(sid, "p1", "p1.F", force, "N", REL, 1.5, "force, magnitude"),
+        KeyEntry(sid, "p1", "p1.T", 2.0, "N*m", REL, 1.5, "torque", "counterclockwise positive"),
+    ]
+
+
+def _write(folder: Path, sid: str, rows: list[tuple[str, str, str]]) -> None:
+    lines = ["student_id,key,value,unit"] + [f"{sid},{k},{v},{u}" for k, v, u in rows]
+    (folder / f"{sid}.csv").write_text("\n".join(lines) + "\n", encoding="utf-8")
+
+
+@pytest.fixture(scope="module")
+def graded(tmp_path_factory):
+    base = tmp_path_factory.mktemp("fb")
+    subs = base / "subs"
+    subs.mkdir()
+    students = [
+        Student("a1", "Ann Angle", "a1@x.edu"),
+        Student("b2", "Bea\nNewline\tTab\x07", "b2@x.edu", section="A\r\nB"),
+        Student("c3", "Cal Blank", "c3@x.edu"),
+        Student("d4", "Dee Perfect", "d4@x.edu"),
+    ]
+    keys = (_keys("a1", 337.4, 100.0) + _keys("b2", 0.3, 100.0) + _keys("c3", 10.0, 100.0)
+            + _keys("d4", 45.0, 100.0))
+    # a1: 2° off (337.4 → 339.4) and force 30 % too high; b2: 0.5° off across 0°/360° -> 359.8
+    _write(subs, "a1", [("p1.dir", "339.4", "deg"), ("p1.F", "130", "N"), ("p1.T", "2", "N*m")])
+    _write(subs, "b2", [("p1.dir", "359.8", "deg"), ("p1.F", "70", "N"), ("p1.T", "2", "N·m")])
+    _write(subs, "c3", [("p1.dir", "", "deg"), ("p1.F", "", "N"), ("p1.T", "", "N*m")])  # the template, unfilled
+    # every answer right; points 1 + 1.5 + 1.5 can sum to 100.00000000000001 %
+    _write(subs, "d4", [("p1.dir", "45", "deg"), ("p1.F", "100", "N"), ("p1.T", "2000", "N*mm")])
+    out = base / "out"
+    result = grade_batch(keys, students, subs, out, assignment_title="HW\n9", problem_titles={"p1": "Four-bar"})
+    out_reveal = base / "out_reveal"
+    grade_batch(keys, students, subs, out_reveal, assignment_title="HW 9", reveal=True)
+    return result, out, out_reveal
+
+
+def test_angle_difference_is_degrees_wrapped_never_a_percentage(graded):
+    _, _, out = graded
+    a1 = (out / "feedback" / "a1.md").read_text(encoding="utf-8")
+    row = next(line for line in a1.splitlines() if line.startswith("| p1.dir"))
+    assert "2° counterclockwise (wrapped at 360°)" in row and "%" not in row
+    b2 = (out / "feedback" / "b2.md").read_text(encoding="utf-8")
+    row = next(line for line in b2.splitlines() if line.startswith("| p1.dir"))
+    # 0.3° asked, 359.8° given: 0.5° clockwise after wrapping (accepted at ±0.5°), not "Off by 106 %"
+    assert "| right |" in row and "%" not in row
+    row_f = next(line for line in a1.splitlines() if line.startswith("| p1.F"))
+    assert "+30 %" in row_f
+
+
+def test_without_reveal_no_signed_amount_lets_a_student_back_out_the_key(graded):
+    _, out, _ = graded
+    for sid in ("a1", "b2"):
+        for ext in ("md", "html"):
+            text = (out / "feedback" / f"{sid}.{ext}").read_text(encoding="utf-8")
+            assert not re.search(r"\d+(\.\d+)? ?%\s*\|", text.replace("(", "|"))  # no "30 %" cell
+            assert "30 %" not in text and "339.4" not in text.replace("339.4 ", "").replace(">339.4<", "")
+            assert "outside the tolerance" in text
+    a1 = (out / "feedback" / "a1.md").read_text(encoding="utf-8")
+    assert "too high, outside the tolerance" in next(x for x in a1.splitlines() if x.startswith("| p1.F"))
+    assert "too far counterclockwise, outside the tolerance" in next(
+        x for x in a1.splitlines() if x.startswith("| p1.dir"))
+    b2 = (out / "feedback" / "b2.md").read_text(encoding="utf-8")
+    assert "too low, outside the tolerance" in next(x for x in b2.splitlines() if x.startswith("| p1.F"))
+
+
+def test_an_unfilled_file_gives_one_message(graded):
+    _, out, _ = graded
+    c3 = (out / "feedback" / "c3.md").read_text(encoding="utf-8")
+    issues = c3.split("## Problems reading your file", 1)[1].strip().splitlines()
+    assert len(issues) == 1, issues
+    assert "blank cell" in issues[0] and "in 3 rows" in issues[0]
+    report = (out / "report.md").read_text(encoding="utf-8")
+    messages = report.split("## Messages", 1)[1]
+    assert messages.count("- c3:") == 1
+
+
+def test_lms_exports_keep_every_name_on_one_line(graded):
+    _, out, _ = graded
+    for name in ("canvas.csv", "moodle.csv", "grades.csv"):
+        raw = (out / name).read_text(encoding="utf-8")
+        rows = list(csv.reader(raw.splitlines()))
+        assert len(rows) == 5, f"{name}: a name broke a row: {raw!r}"
+        for row in rows:
+            for cell in row:
+                assert not re.search(r"[\x00-\x1f\x7f]", cell), (name, cell)
+    canvas = list(csv.DictReader((out / "canvas.csv").open(encoding="utf-8")))
+    bea = next(r for r in canvas if r["SIS User ID"] == "b2")
+    assert bea["Student"] == "Tab, Bea Newline" and bea["Section"] == "A B"
+
+
+def test_histogram_counts_perfect_scores(graded, tmp_path):
+    result, out, _ = graded
+    d4 = next(g for g in result.grades if g.student.student_id == "d4")
+    assert d4.total == d4.max_points
+    from gradekit.grading.exports import write_histogram
+
+    png = tmp_path / "h.png"
+    counts = _histogram_counts(write_histogram, png, [100.00000000000001, 100.0, 55.0])
+    assert counts[-1] == 2 and sum(counts) == 3
+
+
+def _histogram_counts(write, path, percents):
+    """The bar heights of the histogram `write_histogram` draws for *percents*."""
+    from matplotlib.figure import Figure
+
+    seen = {}
+    original = Figure.savefig
+
+    def spy(self, *a, **k):
+        ax = self.axes[0]
+        seen["bars"] = [p.get_height() for p in ax.patches]
+        return original(self, *a, **k)
+
+    Figure.savefig = spy
+    try:
+        write(path, percents, "t")
+    finally:
+        Figure.savefig = original
+    assert path.stat().st_size > 0
+    return seen["bars"]
+
+
+def test_solve_with_assignment_prints_the_sheets_values(tmp_path):
+    from gradekit.documents import generate
+
+    roster = tmp_path / "roster.csv"
+    roster.write_text("student_id,name\n1001,A\n1002,B\n1003,C\n", encoding="utf-8")
+    asg = ROOT / "examples" / "hw5.yaml"
+    generate(asg, roster, tmp_path / "out", keys=False, student="1003", progress=False)
+    keyed = {r["key"]: float(r["value"]) for r in csv.DictReader((tmp_path / "out" / "key.csv").open())
+             if r["student_id"] == "1003" and r["problem"] == "p3"}
+    runner = CliRunner()
+    res = runner.invoke(main, ["solve", "s002-fourbar-120lb", "--student", "1003", "--assignment", str(asg),
+                               "--manifest", str(tmp_path / "out" / "manifest.json"), "--json"])
+    assert res.exit_code == 0, res.output
+    data = json.loads(res.stdout)
+    assert keyed and {f"p3.{k}": v["value"] for k, v in data["answers"].items()} == pytest.approx(keyed, rel=1e-9)
+    shown = runner.invoke(main, ["bank", "show", "p3", "--student", "1003", "--assignment", str(asg)])
+    assert shown.exit_code == 0, shown.output
+    assert "not any assignment" not in shown.output
+    plain = runner.invoke(main, ["bank", "show", "s002-fourbar-120lb", "--student", "1003"])
+    assert plain.exit_code == 0 and "not any assignment's sheet" in plain.stderr
+    bad = runner.invoke(main, ["solve", "p9", "--student", "1003", "--assignment", str(asg)])
+    assert bad.exit_code == 1 and "expected a problem of the assignment" in bad.output
