@@ -155,16 +155,30 @@ def polygon(result: Result, cr: CaseResult, member: Member, title: str) -> Canva
     cv = Canvas()
     V = (poly - (poly.max(axis=0) + poly.min(axis=0)) / 2) * s
     mid = V.mean(axis=0)
+    k = len(member.forces)
+    # Collinear forces (a two-force member, a load along a slide) close a polygon of zero area:
+    # the arrows would lie on top of each other, so each is drawn beside the line, side by side.
+    edges = [V[i + 1] - V[i] for i in range(k)]
+    u = max(edges, key=lambda e: float(np.hypot(*e)))
+    u = u / max(float(np.hypot(*u)), 1e-12)
+    normal = np.array([-u[1], u[0]])
+    flat = k > 1 and float(np.max(np.abs((V - V[0]) @ normal))) < 0.06 * POLY_SIZE
+    shift = [normal * (10.0 * (i - (k - 1) / 2)) if flat else np.zeros(2) for i in range(k)]
     for i, f in enumerate(member.forces):
-        cv.arrow(V[i], V[i + 1], KIND_COLOUR.get(f.kind, BLACK), 1.4, gid=f"poly-{f.name}")
+        cv.arrow(V[i] + shift[i], V[i + 1] + shift[i], KIND_COLOUR.get(f.kind, BLACK), 1.4, gid=f"poly-{f.name}")
     for i, f in enumerate(member.forces):
-        m = (V[i] + V[i + 1]) / 2
-        d = V[i + 1] - V[i]
+        a, b = V[i] + shift[i], V[i + 1] + shift[i]
+        m, d = (a + b) / 2, b - a
         n = np.array([-d[1], d[0]])
-        if float(np.dot(n, m - mid)) < 0:
+        if flat:
+            n = shift[i] if float(np.hypot(*shift[i])) > 0 else normal
+        elif float(np.dot(n, m - mid)) < 0:
             n = -n
-        cv.label(force_name(pr, link, f, key), [m, V[i] + d * 0.3, V[i] + d * 0.7],
+        cv.label(force_name(pr, link, f, key), [m, a + d * 0.3, a + d * 0.7],
                  KIND_COLOUR.get(f.kind, BLACK), clear=2.0, prefer=n)
+    if flat:
+        x0, y0, _, _ = cv.extent()
+        cv.text((x0, y0 - 10.0), "collinear forces: drawn side by side", GREY, 7.5, ha="left")
     # force scale bar
     fu = pr.units["force"]
     per_pt = units.convert(1.0 / s, "N", fu)
