@@ -166,7 +166,7 @@ def bank_show(problem: str, student: str | None, course: str, salt: str, bank: s
     from gradekit.statement import render_statement
 
     v = _student_variant(problem, False, student, None, course, salt, 0, bank, assignment, manifest)
-    click.echo(render_statement(v.problem, v.values))
+    click.echo(render_statement(v.problem, v.result.values))
     click.echo()
     click.echo(report.as_text(v.result))
 

@@ -150,3 +150,39 @@ def test_solver_does_not_import_matplotlib():
             "print('matplotlib' in sys.modules)")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "False"
+
+
+def test_a_load_point_named_by_its_dimension_is_labelled():
+    """O4C = 4 in names the load point C: the figure labels C at the point the load acts on."""
+    for pid in ("s002-fourbar-120lb", "s002-fourbar-matrix"):
+        r = result(pid, "s5")
+        svg = figures.to_svg(figures.scene(r)).decode()
+        assert re.search(r'<g id="point-load-P">.*?<text[^>]*>C</text>', svg, re.S), pid
+
+
+def test_a_scene_too_wide_for_a_page_is_drawn_at_a_printable_stated_scale():
+    from gradekit.figures.assignment import LANDSCAPE, printed_scale
+
+    pr = BANK["s003-slider-crank"]
+    seen = set()
+    for i in range(40):
+        r = variant(pr, student=f"w{i}", course="MEG373", salt="figures").result
+        k = printed_scale(r)
+        seen.add(k)
+        svg = figures.to_svg(figures.scene(r, true_scale=True)).decode()
+        w = float(re.search(r'width="([\d.]+)pt"', svg).group(1))
+        assert w <= LANDSCAPE[0] + 12.0 + 0.5, (f"w{i}", w)
+        assert f"Scale {'1:1' if k == 1 else '1:2' if k == 0.5 else '1:5'} —" in svg_text(svg.encode())
+        if k != 1.0:  # the link measures true at the stated scale
+            (x0, y0), (x1, y1) = _path_points(svg, "link-rod")[:2]
+            assert math.hypot(x1 - x0, y1 - y0) / 72 * 25.4 == pytest.approx(r.values["L2"] * k, abs=0.1)
+    assert 1.0 in seen and 0.5 in seen
+
+
+def test_collinear_force_polygon_is_drawn_side_by_side():
+    r = result("ch5-ex5-1", "s6")
+    fig = next(f for slug, _c, f in figures.key_figures(r) if slug.endswith("1"))
+    svg = figures.to_svg(fig).decode()
+    assert "collinear forces: drawn side by side" in svg_text(svg.encode())
+    a, b = (_path_points(svg, gid) for gid in re.findall(r'<g id="(poly-[^"]+)">', svg)[:2])
+    assert min(math.hypot(p[0] - q[0], p[1] - q[1]) for p in a for q in b) > 3.0  # not on top of each other

@@ -76,6 +76,16 @@ def ratio_text(k: float) -> str:
     return f"1:{fmt(1 / k, 4)}"
 
 
+def load_point_name(problem, spec) -> str:
+    """The name of a load's point of application when its dimension names it: ``O4C`` from O4 -> C."""
+    if not (spec.at and isinstance(spec.along, str) and spec.along in problem.parameters):
+        return ""
+    sym = problem.parameters[spec.along].symbol or ""
+    start = problem.point(spec.at)
+    rest = sym[len(start):] if sym.startswith(start) else ""
+    return rest if len(rest) <= 2 and rest[:1].isalpha() and rest[:1].isupper() else ""
+
+
 def pick_case(result: Result, case: str | None) -> CaseResult:
     if case is None:
         return result.cases[0]
@@ -242,6 +252,14 @@ def _build(result: Result, case: str | None, k_paper: float | None) -> Canvas:
     if "labels" in show:
         for name, p in P.items():
             cv.label(pr.point(name), p, BLACK, clear=PIN + BAR / 2 + 1.0, prefer=p - mid, gid=f"point-{name}")
+        # a load point the statement names through its dimension (O4C = 4 in: the point C)
+        for f, _tail, _head in arrows:
+            sp = specs.get(f.name)
+            name = load_point_name(pr, sp) if sp is not None else ""
+            if name and name not in {pr.point(n) for n in P}:
+                pt = T(f.point)
+                cv.circle(pt, 1.6, BLACK, BLACK, 0.5)
+                cv.label(name, pt, BLACK, clear=4.0, prefer=pt - mid, gid=f"point-load-{f.name}")
     if "com" in show:
         for body, st in sol.states.items():
             if st.mass or st.inertia:
