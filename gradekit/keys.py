@@ -68,6 +68,15 @@ class Tolerance:
             width = np.where(v > 0, np.maximum(width, 0.5 * 10.0**exponent), width)
         return width
 
+    def accepts_many(self, answers, values, scales):
+        """`accepts` for arrays: each answer against its key value, the floor resolved per variant."""
+        import numpy as np
+
+        answers, values = np.asarray(answers, float), np.asarray(values, float)
+        with np.errstate(invalid="ignore"):
+            ok = np.abs(self.difference(answers, values)) <= self.bands(values, scales) * (1 + 1e-12)
+        return ok & np.isfinite(answers) & np.isfinite(values)
+
     def accepts(self, answer: float, value: float) -> bool:
         """True when *answer* is within the band around *value*."""
         if not (math.isfinite(answer) and math.isfinite(value)):

@@ -7,8 +7,7 @@ A draw is accepted only when the mechanism assembles, passes the virtual-work ch
 constraint of the problem; after ``max_draws`` rejections the error names the constraint that
 rejected the most. Sampling is batched: every pending variant's next draw (from its own
 generator, so each variant's sequence is the one a one-at-a-time loop would draw) is checked
-in one solve per round. Acceptance depends only on the problem file: its constraints and its
-answers' tolerances as the file states them (`gradekit.sampling.acceptance_tolerances`).
+in one solve per round.
 """
 
 from __future__ import annotations
@@ -28,7 +27,6 @@ from gradekit.mechanics.forces import VW_LIMIT
 from gradekit.pipeline import Context, Result, ResultBatch, published_values, round_display, sig_round, solve_many
 
 MAX_DRAWS = 400
-
 
 def derive_seed(course: str, salt: str, student: str, problem_id: str, redraw: int = 0) -> int:
     """A 64-bit seed from SHA-256 of the four identifiers (and a re-draw counter)."""
@@ -59,32 +57,22 @@ class Variant:
     values: dict[str, float]
     seed: int | None
     draws: int
-    result: Result
-    redraw: int = 0
-    batch: ResultBatch | None = field(default=None, repr=False, compare=False)
+    batch: ResultBatch = field(repr=False, compare=False)
     index: int = 0
     batch_values: dict | None = field(default=None, repr=False, compare=False)
+    redraw: int = 0
+
+    @property
+    def result(self) -> Result:
+        """This variant's row of its batch as a `Result` (made on first use)."""
+        if "_result" not in self.__dict__:
+            self.__dict__["_result"] = self.batch.take(self.index)
+        return self.__dict__["_result"]
 
 
 def _evaluate_rows(text: str, values: dict, n: int) -> np.ndarray:
-    """A constraint expression per variant: vectorised when numpy can, else one row at a time.
-
-    A row whose expression cannot be evaluated counts as False (the draw is rejected).
-    """
-    try:
-        with np.errstate(all="ignore"):
-            out = np.broadcast_to(np.asarray(expr.evaluate(text, values)), (n,))
-        if out.dtype == bool:
-            return out
-    except Exception:  # and/or, conditionals and math functions take one row at a time
-        pass
-    res = np.zeros(n, bool)
-    for i in range(n):
-        try:
-            res[i] = bool(expr.evaluate(text, {k: float(v[i]) if np.ndim(v) else float(v) for k, v in values.items()}))
-        except (expr.ExprError, ValueError, ZeroDivisionError, OverflowError):
-            res[i] = False
-    return res
+    """A constraint expression for every variant; a row without a real value counts as False."""
+    return np.broadcast_to(expr.truth(expr.evaluate_many(text, values)), (n,))
 
 
 def _grashof(problem: Problem, full: dict, n: int) -> np.ndarray:
@@ -220,6 +208,14 @@ class VariantBatch:
             f"constraint {worst!r} rejected {count} of them ({dict(rejected)})"
         )
 
+    def by_batch(self) -> list[tuple[ResultBatch, list[int]]]:
+        """The solved batches of the accepted variants, each with the rows of it they hold."""
+        out: dict[int, tuple[ResultBatch, list[int]]] = {}
+        for i, row in enumerate(self.rows):
+            if row is not None and self.ok[i]:
+                out.setdefault(id(row[0]), (row[0], []))[1].append(row[1])
+        return list(out.values())
+
     @property
     def answers(self) -> dict[str, np.ndarray]:
         """Every answer of every variant (NaN where not ok), in the answer's unit."""
@@ -239,7 +235,7 @@ class VariantBatch:
         batch, j, raw = self.rows[i]
         values = {k: float(v[i]) for k, v in self.values.items()}
         redraw = int(self.redraws[i]) if len(self.redraws) else 0
-        return Variant(self.problem, values, self.seeds[i], int(self.draws[i]), batch.take(j), redraw, batch, j, raw)
+        return Variant(self.problem, values, self.seeds[i], int(self.draws[i]), batch, j, raw, redraw)
 
 
 def sample_many(
@@ -323,7 +319,8 @@ def variant(
     base = published_values(problem)
     if student is None and seed is None:
         reasons, batch = check_many(problem, base, 1)
-        return Variant(problem, base, None, 0, batch.take(0), 0, batch, 0, base)
+        batch.take(0)  # raises the geometry error of a published variant that cannot be solved
+        return Variant(problem, base, None, 0, batch, 0, base)
     if seed is None:
         seed = derive_seed(course, salt, student or "", problem.id, redraw)
     v = sample_many(problem, [seed], max_draws=max_draws).variant(0)

@@ -11,63 +11,75 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Iterable
 
+import numpy as np
+
 from gradekit.bank.registry import load_bank
 from gradekit.errors import GradekitError
+from gradekit.keys import Tolerance
 from gradekit.mechanics.forces import VW_LIMIT
 from gradekit.report import fmt
-from gradekit.sampling import class_variants, derive_seed, variant
+from gradekit.sampling import class_variants, derive_seed, sample_many
 
 
-def _self_grade_failures(result) -> list[str]:
+def _self_grade_failures(key: str, tol: Tolerance, values: np.ndarray, scales: np.ndarray) -> list[str]:
+    """Every variant's key grades itself and answers just outside its band are rejected (all variants
+    at once; the grader's one-answer `accepts` is checked to agree on the first 50)."""
     bad = []
-    for a in result.answers:
-        tol = a.tolerance
-        if not tol.accepts(a.value, a.value):
-            bad.append(f"{a.key}: the key does not grade itself")
-        band = tol.band(a.value)
-        if band <= 0:
-            bad.append(f"{a.key}: zero-width tolerance band at {a.value}")
-            continue
-        for outside in (a.value + 1.001 * band + 1e-12 * abs(a.value), a.value - 1.001 * band - 1e-12 * abs(a.value)):
-            if tol.accepts(outside, a.value):
-                bad.append(f"{a.key}: {outside} just outside the band is still accepted")
+    band = tol.bands(values, scales)
+    for i in np.flatnonzero(band <= 0):
+        bad.append(f"variant {i}: {key}: zero-width tolerance band at {values[i]}")
+    for i in np.flatnonzero(~tol.accepts_many(values, values, scales)):
+        bad.append(f"variant {i}: {key}: the key does not grade itself")
+    for sign in (1, -1):
+        outside = values + sign * (1.001 * band + 1e-12 * np.abs(values))
+        for i in np.flatnonzero(tol.accepts_many(outside, values, scales) & (band > 0)):
+            bad.append(f"variant {i}: {key}: {outside[i]} just outside the band is still accepted")
+        many = tol.accepts_many(outside, values, scales)
+        for i in range(min(50, len(values))):
+            if tol.resolve(float(scales[i])).accepts(outside[i], values[i]) != bool(many[i]):
+                bad.append(f"variant {i}: {key}: the batched and the one-answer tolerance disagree")
     return bad
 
 
 def check_problem(problem, n: int, class_size: int, echo: Callable[[str], None]) -> bool:
-    """Check *n* variants of one problem; print its summary line(s); True when all pass."""
+    """Check *n* variants of one problem (drawn and solved in batches); print its summary; True when all pass."""
     failures: list[str] = []
-    units: dict[str, str] = {}
-    draws = 0
-    ranges: dict[str, list[float]] = {}
-    worst_mu, worst_cond, worst_vw = 180.0, 0.0, 0.0
     randoms = any(p.random for p in problem.parameters.values())
     count = n if randoms else 1
-    for i in range(count):
-        try:
-            v = (
-                variant(problem, seed=derive_seed("bank-check", "", str(i), problem.id))
-                if randoms
-                else variant(problem)
-            )
-        except GradekitError as exc:
-            failures.append(f"variant {i}: {exc.format_message()}")
-            continue
-        draws += max(v.draws, 1)
-        r = v.result
-        worst_mu = min(worst_mu, r.transmission_angle)
-        worst_cond = max(worst_cond, r.condition_number)
-        worst_vw = max(worst_vw, r.virtual_work_residual)
-        if r.virtual_work_residual > VW_LIMIT:
-            failures.append(f"variant {i}: virtual-work residual {r.virtual_work_residual:.2e} > {VW_LIMIT}")
-        if r.condition_number > problem.constraints.condition_max:
-            failures.append(f"variant {i}: condition number {r.condition_number:.3g} above the bound")
-        for a in r.answers:
+    try:
+        vb = (
+            sample_many(problem, [derive_seed("bank-check", "", str(i), problem.id) for i in range(count)])
+            if randoms
+            else sample_many(problem, [None])
+        )
+    except GradekitError as exc:
+        echo(f"{problem.id:<30} FAIL  {exc.format_message()}")
+        return False
+    for i in np.flatnonzero(~vb.ok):
+        failures.append(f"variant {i}: {vb.reason(int(i))}")
+    draws = int(vb.draws[vb.ok].sum()) if randoms else 1
+    accepted = int(vb.ok.sum())
+    worst_mu, worst_cond, worst_vw = 180.0, 0.0, 0.0
+    ranges: dict[str, tuple[float, float]] = {}
+    units: dict[str, str] = {}
+    for batch, rows in vb.by_batch():
+        sel = np.asarray(rows)
+        worst_mu = min(worst_mu, float(batch.transmission_angle[sel].min()))
+        worst_cond = max(worst_cond, float(batch.condition_number[sel].max()))
+        vw = batch.virtual_work_residual[sel]
+        worst_vw = max(worst_vw, float(vw.max()))
+        for i in np.flatnonzero(vw > VW_LIMIT):
+            failures.append(f"variant {rows[i]}: virtual-work residual {vw[i]:.2e} > {VW_LIMIT}")
+        cond_bad = batch.condition_above(problem.constraints.condition_max)[sel]
+        failures.extend(f"variant {rows[i]}: condition number above the bound" for i in np.flatnonzero(cond_bad))
+        for a in batch.answer_list:
             units[a.key] = a.unit
-            if not math.isfinite(a.value):
-                failures.append(f"variant {i}: {a.key} is not finite")
-            ranges.setdefault(a.key, []).append(a.value)
-        failures.extend(f"variant {i}: {m}" for m in _self_grade_failures(r))
+            vals = a.value[sel]
+            if not np.isfinite(vals).all():
+                failures.append(f"{a.key} is not finite in {int((~np.isfinite(vals)).sum())} variants")
+            lo, hi = ranges.get(a.key, (math.inf, -math.inf))
+            ranges[a.key] = (min(lo, float(vals.min())), max(hi, float(vals.max())))
+            failures.extend(_self_grade_failures(a.key, a.spec.tolerance, vals, a.scale[sel]))
     distinct = 1
     if randoms:
         try:
@@ -78,16 +90,15 @@ def check_problem(problem, n: int, class_size: int, echo: Callable[[str], None])
             distinct = 0
         if distinct < class_size:
             failures.append(f"only {distinct} distinct variants for a class of {class_size}")
-    rejection = 1 - count / draws if draws else 1.0
+    rejection = 1 - accepted / draws if draws else 1.0
     status = "ok" if not failures else "FAIL"
     echo(
         f"{problem.id:<30} {status:<4} variants {count:>5}  rejected {rejection:6.1%}  "
         f"worst μ {worst_mu:5.1f}°  worst cond {worst_cond:9.3g}  max vw {worst_vw:.1e}  "
         f"distinct {distinct}/{class_size if randoms else 1}"
     )
-    for key, vals in ranges.items():
-        unit = units.get(key, "")
-        echo(f"    {key:<14} {fmt(min(vals), 4):>12} .. {fmt(max(vals), 4):<12} {unit}")
+    for key, (lo, hi) in ranges.items():
+        echo(f"    {key:<14} {fmt(lo, 4):>12} .. {fmt(hi, 4):<12} {units.get(key, '')}")
     for f in failures[:10]:
         echo(f"    ! {f}")
     if len(failures) > 10:

@@ -237,3 +237,104 @@ def _eval(node: ast.AST, env: Mapping[str, float], text: str):
         except (ValueError, TypeError, OverflowError, ZeroDivisionError) as exc:
             raise ExprError(f"cannot evaluate {_shown(text)}: {exc}") from None
     raise ExprError(f"not allowed in {_shown(text)}")
+
+
+def _np_functions():
+    import numpy as np
+
+    deg = np.degrees
+    return {
+        "sqrt": np.sqrt,
+        "sin": np.sin,
+        "cos": np.cos,
+        "tan": np.tan,
+        "asin": np.arcsin,
+        "acos": np.arccos,
+        "atan": np.arctan,
+        "atan2": np.arctan2,
+        "sind": lambda d: np.sin(np.radians(d)),
+        "cosd": lambda d: np.cos(np.radians(d)),
+        "tand": lambda d: np.tan(np.radians(d)),
+        "asind": lambda x: deg(np.arcsin(x)),
+        "acosd": lambda x: deg(np.arccos(x)),
+        "atan2d": lambda y, x: deg(np.arctan2(y, x)),
+        "radians": np.radians,
+        "degrees": np.degrees,
+        "abs": np.abs,
+        "min": np.minimum,
+        "max": np.maximum,
+        "hypot": np.hypot,
+        "round": np.round,
+        "log10": np.log10,
+        "exp": np.exp,
+    }
+
+
+def evaluate_many(text: str, env: Mapping):
+    """Evaluate *text* elementwise over arrays of parameter values (one entry per variant).
+
+    The same grammar and limits as `evaluate`; where a row has no real value (a square root of a
+    negative, a division by zero) its result is NaN and its comparisons are False, where
+    `evaluate` would raise for that row.
+    """
+    import numpy as np
+
+    tree = parse(text)
+    fns = _np_functions()
+    cmp = {
+        ast.Lt: np.less,
+        ast.LtE: np.less_equal,
+        ast.Gt: np.greater,
+        ast.GtE: np.greater_equal,
+        ast.Eq: np.equal,
+        ast.NotEq: np.not_equal,
+    }
+
+    def ev(node: ast.AST):
+        if isinstance(node, ast.Constant):
+            return float(node.value) if isinstance(node.value, int) and not isinstance(node.value, bool) else node.value
+        if isinstance(node, ast.Name):
+            if node.id in env:
+                return np.asarray(env[node.id], dtype=float)
+            if node.id in CONSTANTS:
+                return CONSTANTS[node.id]
+            raise ExprError(f"unknown name {node.id!r} in {_shown(text)}")
+        if isinstance(node, ast.BinOp):
+            b = ev(node.right)
+            if isinstance(node.op, ast.Pow) and np.any(np.abs(b) > MAX_EXPONENT):
+                raise ExprError(f"cannot evaluate {_shown(text)}: expected exponents of at most {MAX_EXPONENT:g}")
+            return _BIN[type(node.op)](ev(node.left), b)
+        if isinstance(node, ast.UnaryOp):
+            v = ev(node.operand)
+            if isinstance(node.op, ast.USub):
+                return -v
+            if isinstance(node.op, ast.UAdd):
+                return v
+            if isinstance(node.op, ast.Not):
+                return np.logical_not(truth(v))
+        if isinstance(node, ast.Compare):
+            left, out = ev(node.left), True
+            for op, comp in zip(node.ops, node.comparators, strict=True):
+                right = ev(comp)
+                out = np.logical_and(out, cmp[type(op)](left, right))
+                left = right
+            return out
+        if isinstance(node, ast.BoolOp):
+            vals = [truth(ev(v)) for v in node.values]
+            return np.logical_and.reduce(vals) if isinstance(node.op, ast.And) else np.logical_or.reduce(vals)
+        if isinstance(node, ast.IfExp):
+            return np.where(truth(ev(node.test)), ev(node.body), ev(node.orelse))
+        if isinstance(node, ast.Call):
+            return fns[node.func.id](*[ev(a) for a in node.args])
+        raise ExprError(f"not allowed in {_shown(text)}")
+
+    with np.errstate(all="ignore"):
+        return ev(tree.body)
+
+
+def truth(value):
+    """Elementwise truth of an `evaluate_many` result: a NaN (no real value) is False."""
+    import numpy as np
+
+    v = np.asarray(value)
+    return (v != 0) & ~np.isnan(v) if v.dtype.kind == "f" else v.astype(bool)
