@@ -1,19 +1,59 @@
-"""Flag submissions that match another student's key better than their own."""
+"""Copy detection that chance cannot trigger.
+
+Two kinds of evidence, each flagged only when chance explains it with probability below
+``alpha`` after accounting for every classmate the student was compared with:
+
+**Matches a classmate's key.** An answer *x* that is wrong for the student (outside their own
+band) "matches" classmate *j* when it lies in *j*'s band. For one answer the chance that a
+random classmate's key falls in a band around *x* is estimated from the class's keys for that
+answer: ``p = 2·max(W_left, W_right) / (h·(N−1))``, where ``W_left``/``W_right`` sum the band
+half-widths of the keys within ``h`` below/above *x* (the larger side, so an answer at the edge
+of the class's range is not given a thin density) and ``h`` reaches at least the 10th nearest key
+and 3 bands. A second, sharper look asks for *x* to equal the key to the digits it was given
+(radius half a unit of its last digit, at most 6 significant figures) with ``p`` scaled by that
+radius over the band. Answers of one problem are functions of the same few inputs (some are
+identical), so answers whose keys are rank-correlated across the class at ``|ρ| ≥ 0.7`` form one
+trial with ``p = Σ p`` (a union bound). The matches with one classmate are then a sum of
+independent Bernoulli trials (Poisson-binomial): the tail ``P(M ≥ m)`` of the best classmate's
+count is corrected for the N−1 classmates, ``1 − (1 − P)^(N−1)``, and for the two looks (×2).
+
+**Shares wrong answers.** Submitted values that are wrong for both students are indexed per answer
+by their value rounded to 4 significant figures (hashing, never pairs of students). The chance
+that a classmate's wrong answer lands in the same bin is the density of the class's wrong answers
+near it times the bin's width at the precision the value was given in (a value given to 2
+significant figures is easily shared), and never less than the share of the class (outside the
+pair) that gave that same value. The count of shared trials is tested as above, and at least
+``min_shared`` shared answers are required.
+
+Everything is sorted arrays, ``searchsorted`` and hashing per answer key: a class of n students
+with k answers costs O(n·k·log n) plus the matches found.
+"""
 
 from __future__ import annotations
 
-import bisect
-from collections import Counter
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+
+import numpy as np
 
 from gradekit.grading.compare import StudentGrade
 from gradekit.keys import KeyEntry
 
+KEY_MATCH = "matches classmate's key"
+SHARED_WRONG = "shares wrong answers"
+
 
 @dataclass(frozen=True)
 class IntegrityFlag:
-    """Evidence that *student_id*'s answers fit *other_id*'s key better than their own."""
+    """Evidence that *student_id* handed in answers that come from *other_id*.
+
+    ``reason`` is ``matches classmate's key`` (``other_matches`` answers of *student_id* fall in
+    *other_id*'s bands, ``own_matches`` in their own) or ``shares wrong answers`` (both gave the
+    same values, wrong for both, on ``other_matches`` answers). ``keys`` names the answers;
+    ``p_value`` is the chance of that much agreement between independent students, already
+    corrected for the number of classmates compared (None when not computed).
+    """
 
     student_id: str
     other_id: str
@@ -21,65 +61,368 @@ class IntegrityFlag:
     own_matches: int
     other_matches: int
     keys: tuple[str, ...]
+    p_value: float | None = None
+    reason: str = KEY_MATCH
+    other_path: str = ""
 
     def describe(self) -> str:
         """One line for the report."""
+        chance = f"; chance {_odds(self.p_value)}" if self.p_value is not None else ""
+        if self.reason == SHARED_WRONG:
+            where = f"{self.path} and {self.other_path}" if self.other_path else self.path
+            return (
+                f"{where}: {self.student_id} and {self.other_id} give the same wrong values on "
+                f"{self.other_matches} answers ({', '.join(self.keys)}){chance}"
+            )
         return (
             f"{self.path}: {self.student_id} matches {self.other_id}'s key on "
             f"{self.other_matches} answers ({', '.join(self.keys)}) but their own on "
-            f"{self.own_matches}"
+            f"{self.own_matches}{chance}"
         )
 
 
-def find_copies(grades: Sequence[StudentGrade], keys: Sequence[KeyEntry]) -> list[IntegrityFlag]:
-    """Flag each graded submission whose answers fit another student's key better.
+def _odds(p: float) -> str:
+    """``p ≈ 3e-07 (1 in 3,000,000) for independent work, all classmates compared``."""
+    if p <= 0:
+        return "below 1e-300 for independent work, all classmates compared"
+    return f"p ≈ {p:.1g} (1 in {1 / p:,.0f}) for independent work, all classmates compared"
 
-    A submission is flagged when the number of its answers within tolerance of another
-    student's key exceeds the number within tolerance of its own key, and is at least 2. Each
-    answer is looked up among the other students' values for that key by bisection, so a class
-    of n students costs O(n·k·log n), not O(n²·k).
+
+def poisson_binomial_tails(probs: np.ndarray) -> np.ndarray:
+    """``P(M ≥ m)`` for m = 0..T of M = Σ Bernoulli(probs[:, t]), one row per student.
+
+    Args:
+        probs: (students, T) success probabilities (0 for trials that do not exist).
+
+    Returns:
+        (students, T + 1) upper tails.
+    """
+    n, t = probs.shape
+    dist = np.zeros((n, t + 1))
+    dist[:, 0] = 1.0
+    for i in range(t):
+        p = probs[:, i : i + 1]
+        dist[:, 1 : i + 2] = dist[:, 1 : i + 2] * (1 - p) + dist[:, : i + 1] * p
+        dist[:, 0:1] *= 1 - p
+    return np.clip(np.cumsum(dist[:, ::-1], axis=1)[:, ::-1], 0.0, 1.0)
+
+
+def corrected(p: np.ndarray, comparisons: int) -> np.ndarray:
+    """``1 − (1 − p)^comparisons``: the chance that any of that many classmates does as well."""
+    p = np.clip(p, 0.0, 1.0)
+    with np.errstate(divide="ignore"):
+        return -np.expm1(comparisons * np.log1p(-np.minimum(p, 1 - 1e-16)))
+
+
+def _digits_radius(x: np.ndarray, cap: int) -> tuple[np.ndarray, np.ndarray]:
+    """(significant figures given, at most *cap*; half a unit of the last one) per value."""
+    ax = np.abs(x)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        e = np.floor(np.log10(np.where(ax > 0, ax, 1.0)))
+    sig = np.full(x.shape, cap)
+    for s in range(cap - 1, 0, -1):
+        q = 10.0 ** (e - s + 1)
+        exact = np.abs(np.round(x / q) * q - x) <= 1e-9 * np.maximum(ax, 1e-300)
+        sig = np.where(exact, s, sig)
+    return sig, 0.5 * 10.0 ** (e - sig + 1) * (1 + 1e-9)
+
+
+def _density(sorted_values: np.ndarray, weights: np.ndarray, x: np.ndarray, floor: np.ndarray, k: int):
+    """For each x: the larger one-sided sum of *weights* within h of x, and h.
+
+    h is at least *floor* and reaches the k-th nearest of *sorted_values*.
+    """
+    n = len(sorted_values)
+    if n == 0:
+        return np.zeros_like(x), np.maximum(floor, 1e-300)
+    k = max(1, min(k, n))
+    at = np.searchsorted(sorted_values, x)
+    offsets = np.arange(-k, k)
+    idx = np.clip(at[:, None] + offsets[None, :], 0, n - 1)
+    dist = np.abs(sorted_values[idx] - x[:, None])
+    kth = np.partition(dist, k - 1, axis=1)[:, k - 1]
+    h = np.maximum(np.maximum(kth, floor), 1e-300)
+    cum = np.concatenate([[0.0], np.cumsum(weights)])
+    lo = np.searchsorted(sorted_values, x - h, "left")
+    mid_l = np.searchsorted(sorted_values, x, "left")
+    mid_r = np.searchsorted(sorted_values, x, "right")
+    hi = np.searchsorted(sorted_values, x + h, "right")
+    left = cum[mid_r] - cum[lo]
+    right = cum[hi] - cum[mid_l]
+    return np.maximum(left, right), h
+
+
+def _clusters(keys: Sequence[KeyEntry], names: list[str], threshold: float) -> dict[str, int]:
+    """Answer key → trial id: answers of one problem whose keys are rank-correlated at |ρ| ≥ threshold share one."""
+    problem_of: dict[str, str] = {}
+    table: dict[str, dict[str, float]] = {}
+    for e in keys:
+        problem_of.setdefault(e.key, e.problem)
+        table.setdefault(e.key, {})[e.student_id] = e.value
+    out: dict[str, int] = {}
+    by_problem: dict[str, list[str]] = {}
+    for name in names:
+        by_problem.setdefault(problem_of[name], []).append(name)
+    for members in by_problem.values():
+        parent = list(range(len(members)))
+
+        def root(i: int, parent: list[int] = parent) -> int:
+            while parent[i] != i:
+                parent[i] = parent[parent[i]]
+                i = parent[i]
+            return i
+
+        common = set.intersection(*(set(table[m]) for m in members))
+        if len(members) > 1 and len(common) >= 5:
+            ids = sorted(common)
+            matrix = np.array([[table[m][s] for m in members] for s in ids])
+            ranks = np.argsort(np.argsort(matrix, axis=0), axis=0).astype(float)
+            with np.errstate(invalid="ignore", divide="ignore"):
+                rho = np.corrcoef(ranks, rowvar=False)
+            rho = np.nan_to_num(np.atleast_2d(rho), nan=0.0)
+            for i in range(len(members)):
+                for j in range(i + 1, len(members)):
+                    if abs(rho[i, j]) >= threshold:
+                        parent[root(i)] = root(j)
+        base = len(out)
+        roots: dict[int, int] = {}
+        for i, m in enumerate(members):
+            out[m] = base + roots.setdefault(root(i), len(roots))
+    return out
+
+
+def _best_pairs(hits: list[tuple[np.ndarray, np.ndarray]], n_sub: int, n_all: int, n_trials: int):
+    """Per student: the classmate sharing the most distinct trials, that count and the answers.
+
+    *hits* holds (code, answer id) arrays with code = (student row · N + classmate) · trials + trial.
+    """
+    count = np.zeros(n_sub, int)
+    other = np.full(n_sub, -1)
+    if not hits:
+        return count, other, {}
+    code = np.concatenate([h[0] for h in hits])
+    answer = np.concatenate([h[1] for h in hits])
+    if not len(code):
+        return count, other, {}
+    pair = code // n_trials
+    s = pair // n_all
+    codes = np.sort(code)
+    codes = codes[np.concatenate([[True], codes[1:] != codes[:-1]])] // n_trials
+    starts = np.flatnonzero(np.concatenate([[True], codes[1:] != codes[:-1]]))
+    pairs, counts = codes[starts], np.diff(np.append(starts, len(codes)))
+    owner = pairs // n_all  # sorted, and classmates ascending within each owner
+    groups = np.flatnonzero(np.concatenate([[True], owner[1:] != owner[:-1]]))
+    best = np.maximum.reduceat(counts, groups)
+    top = np.flatnonzero(counts == np.repeat(best, np.diff(np.append(groups, len(owner)))))
+    top = top[np.concatenate([[True], owner[top][1:] != owner[top][:-1]])]  # first classmate of the most
+    count[owner[top]] = counts[top]
+    other[owner[top]] = pairs[top] % n_all
+    chosen = np.full(n_sub, -1, np.int64)
+    chosen[owner[top]] = pairs[top]
+    mine = pair == chosen[s]
+    answers: dict[int, list[int]] = {}
+    for p, a in zip(pair[mine].tolist(), answer[mine].tolist(), strict=True):
+        answers.setdefault(p // n_all, []).append(a)
+    return count, other, answers
+
+
+def find_copies(
+    grades: Sequence[StudentGrade],
+    keys: Sequence[KeyEntry],
+    *,
+    alpha: float = 1e-3,
+    min_matches: int = 2,
+    min_shared: int = 3,
+    correlated: float = 0.7,
+    dense: float = 0.02,
+) -> list[IntegrityFlag]:
+    """Flag submissions copied from a classmate: their key matched, or wrong answers shared.
+
+    See the module docstring for the chance model. A student is flagged only when the chance of
+    the agreement between independent students, corrected for every classmate compared, is below
+    *alpha*.
 
     Args:
         grades: the graded students (those without a submission are skipped).
-        keys: every student's key entries.
+        keys: every student's key entries (students without a submission are still classmates
+            whose key can be copied).
+        alpha: the largest corrected chance that is flagged.
+        min_matches: at least this many answers in a classmate's bands.
+        min_shared: at least this many identical wrong answers.
+        correlated: answers of one problem whose keys are rank-correlated at least this much
+            across the class count as one trial.
+        dense: an answer that a random classmate's band holds with a larger chance than this
+            is left out of the band look (too common to be evidence; it costs the most to
+            index), and kept in the sharper look at the digits given.
 
     Returns:
-        One flag per flagged submission, naming the best-fitting other student (ties: the
-        first by id).
+        Key matches (one per flagged student, naming the classmate) then shared wrong answers
+        (one per pair), each with its corrected chance.
     """
-    by_key: dict[str, list[tuple[float, str, KeyEntry]]] = {}
-    for entry in keys:
-        by_key.setdefault(entry.key, []).append((entry.value, entry.student_id, entry))
-    index = {}
-    for key, items in by_key.items():
-        items.sort(key=lambda item: item[0])
-        index[key] = ([item[0] for item in items], items)
-    flags = []
-    for grade in grades:
-        if grade.submission is None:
-            continue
-        sid = grade.student.student_id
-        own = sum(1 for r in grade.results if r.correct)
-        hits: Counter[str] = Counter()
-        evidence: dict[str, list[str]] = {}
-        for result in grade.results:
-            if result.value is None or result.entry.key not in index:
+    subs = [g for g in grades if g.submission is not None]
+    if not subs or not keys:
+        return []
+    everyone = list(dict.fromkeys(e.student_id for e in keys))
+    for g in subs:
+        if g.student.student_id not in everyone:
+            everyone.append(g.student.student_id)
+    col = {sid: i for i, sid in enumerate(everyone)}
+    n_all, n_sub = len(everyone), len(subs)
+    classmates = max(n_all - 1, 1)
+    names = list(dict.fromkeys(e.key for e in keys))
+    aid = {name: i for i, name in enumerate(names)}
+    trial_of = _clusters(keys, names, correlated)
+    n_trials = max(trial_of.values()) + 1
+    sub_col = np.array([col[g.student.student_id] for g in subs])
+
+    # per answer key: the class's keys, bands, period
+    per_key: dict[int, tuple[list[float], list[float], list[int]]] = {}
+    period = np.zeros(len(names))
+    for e in keys:
+        v, w, o = per_key.setdefault(aid[e.key], ([], [], []))
+        v.append(e.value)
+        w.append(e.tolerance.band(e.value))
+        o.append(col[e.student_id])
+        period[aid[e.key]] = e.tolerance.period
+    # per answer key: the submitted values (student row, value, wrong for them)
+    answered: dict[int, tuple[list[int], list[float], list[bool]]] = {}
+    for row, g in enumerate(subs):
+        for r in g.results:
+            if r.value is None or not math.isfinite(r.value) or r.entry.key not in aid:
                 continue
-            x = result.value
-            values, items = index[result.entry.key]
-            # A superset window: bands around nearby key values differ from the band around x
-            # by at most a decade (significant-figure mode), so 20 bands around x cover them.
-            width = 20 * result.entry.tolerance.band(x) + result.entry.tolerance.abs
-            lo = bisect.bisect_left(values, x - width)
-            hi = bisect.bisect_right(values, x + width)
-            for value, other, entry in items[lo:hi]:
-                if other != sid and entry.tolerance.accepts(x, value):
-                    hits[other] += 1
-                    evidence.setdefault(other, []).append(entry.key)
-        if not hits:
+            rows, xs, wrong = answered.setdefault(aid[r.entry.key], ([], [], []))
+            rows.append(row)
+            xs.append(r.value)
+            wrong.append(not r.correct)
+
+    p_band = np.zeros((n_sub, n_trials))
+    p_exact = np.zeros((n_sub, n_trials))
+    p_share = np.zeros((n_sub, n_trials))
+    band_hits: list[tuple[np.ndarray, np.ndarray]] = []
+    exact_hits: list[tuple[np.ndarray, np.ndarray]] = []
+    share_hits: list[tuple[np.ndarray, np.ndarray]] = []
+    for a, (rows_l, xs_l, wrong_l) in answered.items():
+        t = trial_of[names[a]]
+        rows, xs, wrong = np.array(rows_l), np.array(xs_l), np.array(wrong_l)
+        rows, xs = rows[wrong], xs[wrong]
+        if not len(rows) or a not in per_key:
             continue
-        best = max(hits.values())
-        if best >= 2 and best > own:
-            other = min(o for o, n in hits.items() if n == best)
-            flags.append(IntegrityFlag(sid, other, grade.submission.path, own, best, tuple(evidence[other])))
+        v, w, o = (np.array(z) for z in per_key[a])
+        if period[a]:
+            v = np.mod(v, period[a])
+            xs_key = np.mod(xs, period[a])
+            v, w, o = np.concatenate([v - period[a], v, v + period[a]]), np.tile(w, 3), np.tile(o, 3)
+        else:
+            xs_key = xs
+        order = np.argsort(v, kind="stable")
+        v, w, o = v[order], w[order], o[order]
+        sig, radius = _digits_radius(xs, 6)
+        # the chance that a random classmate's band holds x (larger one-sided density × band)
+        typical = np.median(w) if len(w) else 0.0
+        weight, h = _density(v, w, xs_key, 3 * np.maximum(typical, radius), 10)
+        pb = np.minimum(1.0, 2 * weight / (h * classmates))
+        count, _ = _density(v, np.ones_like(w), xs_key, h, 1)
+        pe = np.minimum(pb, 2 * count * 2 * radius / (2 * h * classmates))
+        crowded = pb > dense  # too common to be evidence in a band: only the sharper look uses it
+        np.add.at(p_band, (rows, t), np.where(crowded, 0.0, pb))
+        np.add.at(p_exact, (rows, t), pe)
+        # every classmate whose band holds x
+        reach = np.where(crowded, np.minimum(radius, w.max()), w.max()) if len(w) else np.zeros(len(xs))
+        lo = np.searchsorted(v, xs_key - reach, "left")
+        hi = np.searchsorted(v, xs_key + reach, "right")
+        sizes = hi - lo
+        if sizes.sum():
+            which = np.repeat(np.arange(len(xs)), sizes)
+            idx = np.arange(sizes.sum()) - np.repeat(np.cumsum(sizes) - sizes, sizes) + np.repeat(lo, sizes)
+            gap = np.abs(v[idx] - xs_key[which])
+            other = o[idx]
+            keep = (gap <= w[idx] * (1 + 1e-12)) & (other != sub_col[rows[which]])
+            sel = which[keep]
+            code = ((rows[sel].astype(np.int64) * n_all + other[keep]) * n_trials) + t
+            ex = gap[keep] <= radius[sel]
+            exact_hits.append((code[ex], np.full(int(ex.sum()), a, np.int32)))
+            inband = ~crowded[sel]
+            band_hits.append((code[inband], np.full(int(inband.sum()), a, np.int32)))
+        # identical wrong answers: hash of the value rounded to 4 significant figures
+        digits = np.minimum(sig, 4)
+        ax = np.abs(xs)
+        with np.errstate(divide="ignore"):
+            e = np.floor(np.log10(np.where(ax > 0, ax, 1.0)))
+        mant = np.round(xs / 10.0 ** (e - 3)).astype(np.int64)
+        bins: dict[tuple[int, int], list[int]] = {}
+        for i, key in enumerate(zip(mant.tolist(), e.astype(int).tolist(), strict=True)):
+            bins.setdefault(key, []).append(i)
+        srt = np.sort(xs)
+        width = 10.0 ** (e - digits + 1)
+        dens, hw = _density(srt, np.ones_like(srt), xs, 3 * width, 10)
+        popular = np.zeros(len(xs))
+        pairs_s, pairs_j = [], []
+        for members in bins.values():
+            c = len(members)
+            if c < 2:
+                continue
+            popular[members] = (c - 2) / max(n_all - 2, 1)
+            if c <= 30:
+                for i in members:
+                    for j in members:
+                        if i != j:
+                            pairs_s.append(i)
+                            pairs_j.append(j)
+        ps = np.maximum(2 * dens * width / (2 * hw * classmates), popular)
+        np.add.at(p_share, (rows, t), np.minimum(ps, 1.0))
+        if pairs_s:
+            si, sj = np.array(pairs_s), np.array(pairs_j)
+            code = ((rows[si].astype(np.int64) * n_all + sub_col[rows[sj]]) * n_trials) + t
+            share_hits.append((code, np.full(len(si), a, np.int32)))
+
+    flags: list[IntegrityFlag] = []
+    own = [sum(r.correct for r in g.results) for g in subs]
+    looks = []
+    for hits, probs in ((band_hits, p_band), (exact_hits, p_exact)):
+        count, other, answers = _best_pairs(hits, n_sub, n_all, n_trials)
+        tails = poisson_binomial_tails(np.minimum(probs, 1.0))
+        p = corrected(tails[np.arange(n_sub), count], classmates) * 2  # two looks
+        looks.append((count, other, answers, p))
+    (cb, ob, ab, pvb), (ce, oe, ae, pve) = looks
+    for i, g in enumerate(subs):
+        use_exact = pve[i] < pvb[i]
+        c, o, ans, p = (ce[i], oe[i], ae, pve[i]) if use_exact else (cb[i], ob[i], ab, pvb[i])
+        if o < 0 or p >= alpha:
+            continue
+        matched = tuple(dict.fromkeys(names[a] for a in ans.get(i, [])))
+        if len(matched) < min_matches:
+            continue
+        flags.append(
+            IntegrityFlag(
+                g.student.student_id, everyone[o], g.submission.path, own[i], len(matched), matched, float(min(p, 1.0))
+            )
+        )
+
+    count, other, answers = _best_pairs(share_hits, n_sub, n_all, n_trials)
+    p = corrected(poisson_binomial_tails(np.minimum(p_share, 1.0))[np.arange(n_sub), count], classmates)
+    row_of = {c: i for i, c in enumerate(sub_col.tolist())}
+    seen: set[frozenset[str]] = set()
+    for i, g in enumerate(subs):
+        if other[i] < 0 or p[i] >= alpha:
+            continue
+        shared = tuple(dict.fromkeys(names[a] for a in answers.get(i, [])))
+        partner = everyone[other[i]]
+        pair = frozenset((g.student.student_id, partner))
+        if len(shared) < min_shared or pair in seen:
+            continue
+        seen.add(pair)
+        twin = subs[row_of[other[i]]].submission
+        flags.append(
+            IntegrityFlag(
+                g.student.student_id,
+                partner,
+                g.submission.path,
+                own[i],
+                len(shared),
+                shared,
+                float(min(p[i], 1.0)),
+                SHARED_WRONG,
+                twin.path if twin else "",
+            )
+        )
     return flags
