@@ -54,16 +54,21 @@ def _assignment_opts(f):
                         "(its course and salt).")(f)
 
 
-def _student_variant(problem, published, student, seed, course, salt, redraw, bank, assignment, manifest):
+def _not_a_sheet(course: str, salt: str) -> str:
+    return (f"values drawn for course {course!r}, salt {salt!r}, not any assignment's sheet; "
+            "give --assignment FILE for the student's sheet")
+
+
+def _student_variant(problem, published, student, seed, course, salt, redraw, bank, assignment, manifest,
+                     quiet=False):
     """The variant to show: a student's sheet of --assignment, or values drawn from course and salt."""
     from gradekit.bank.registry import resolve
 
     if assignment is None:
         if manifest is not None:
             raise click.UsageError("--manifest goes with --assignment")
-        if student is not None:
-            click.echo(f"note: values drawn for course {course!r}, salt {salt!r}, not any assignment's sheet; "
-                       "give --assignment FILE for the student's sheet", err=True)
+        if student is not None and not quiet:
+            click.echo(f"note: {_not_a_sheet(course, salt)}", err=True)
         return _variant(resolve(problem, bank), published, student, seed, course, salt, redraw)
     if student is None or published or seed is not None or redraw:
         raise click.UsageError("--assignment goes with --student only (course, salt and re-draws come from it)")
@@ -112,9 +117,13 @@ def solve(
     """Solve PROBLEM (a bank id or a YAML path) and print parameters, intermediate values and answers."""
     from gradekit import report
 
-    v = _student_variant(problem, published, student, seed, course, salt, redraw, bank, assignment, manifest)
+    v = _student_variant(problem, published, student, seed, course, salt, redraw, bank, assignment, manifest,
+                         quiet=as_json)
     if as_json:
-        click.echo(json.dumps(report.as_json(v.result), indent=2))
+        data = report.as_json(v.result)
+        if student is not None and assignment is None:
+            data["note"] = _not_a_sheet(course, salt)
+        click.echo(json.dumps(data, indent=2))
     else:
         click.echo(report.as_text(v.result))
 
@@ -218,27 +227,14 @@ def grade(
     assignment: str, roster: str, submissions: str, out: str, manifest: str | None, reveal: bool, bank: str | None
 ) -> None:
     """Grade every submission in SUBMISSIONS against keys recomputed from ASSIGNMENT and ROSTER."""
-    from pathlib import Path
+    from gradekit import api
 
-    from gradekit.assignment import check_manifest, class_keys, load_assignment, redraws_from_manifest
-    from gradekit.grading.batch import grade_batch
-    from gradekit.roster import read_roster
-
-    asg = load_assignment(assignment, bank)
-    students = read_roster(Path(roster))
-    redraws = None
-    if manifest:
-        for note in check_manifest(asg, Path(manifest)):
-            log.warning("warning: %s", note)
-        redraws = redraws_from_manifest(Path(manifest))
-    keys, _ = class_keys(asg, [s.student_id for s in students], redraws)
-    titles = {it.label: f"{it.label}: {it.problem.title}" for it in asg.items}
-    res = grade_batch(
-        keys, students, Path(submissions), Path(out), assignment_title=asg.title, reveal=reveal, problem_titles=titles
+    res = api.grade(
+        assignment, roster, submissions, out, manifest=manifest, reveal=reveal, bank=bank,
+        warn=lambda note: log.warning("warning: %s", note),
     )
-    log.info(
-        "graded %d of %d students; %d integrity flag(s); results in %s", res.graded, len(students), len(res.flags), out
-    )
+    log.info("graded %d of %d students; %d integrity flag(s); results in %s", res.graded, len(res.grades),
+             len(res.flags), out)
     if not res.ok:
         raise GradekitError(
             f"expected at least one readable submission, got none; see {out}/report.md", path=submissions
@@ -277,13 +273,9 @@ def figures(
 @click.option("--no-keys", is_flag=True, help="Assignments and answer templates only (no worked keys).")
 def generate(assignment: str, roster: str, out: str, jobs: int, student: str | None, no_keys: bool) -> None:
     """Write every student's assignment PDF and answer template, the worked keys, key.csv and the manifest."""
-    from pathlib import Path
+    from gradekit import api
 
-    from gradekit.documents import generate as run
-
-    summary = run(
-        Path(assignment), Path(roster), Path(out), jobs=jobs, student=student, keys=not no_keys, progress=True
-    )
+    summary = api.generate(assignment, roster, out, jobs=jobs, student=student, keys=not no_keys, progress=True)
     for w in summary.warnings:
         log.warning("warning: %s", w)
     log.info("wrote documents for %d student(s) to %s in %.1f s", summary.students, out, summary.seconds)

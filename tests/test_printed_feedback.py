@@ -168,6 +168,8 @@ def test_solve_with_assignment_prints_the_sheets_values(tmp_path):
     assert shown.exit_code == 0, shown.output
     assert "not any assignment" not in shown.output
     plain = runner.invoke(main, ["bank", "show", "s002-fourbar-120lb", "--student", "1003"])
+    as_json = runner.invoke(main, ["solve", "s002-fourbar-120lb", "--student", "1003", "--json"])
+    assert "not any assignment's sheet" in json.loads(as_json.stdout)["note"]
     assert plain.exit_code == 0 and "not any assignment's sheet" in plain.stderr
     bad = runner.invoke(main, ["solve", "p9", "--student", "1003", "--assignment", str(asg)])
     assert bad.exit_code == 1 and "expected a problem of the assignment" in bad.output
