@@ -332,12 +332,8 @@ def row(panels: list[Canvas], gap: float = 28.0) -> Canvas:
 
 def render(cv: Canvas, margin: float = 6.0, extent: tuple[float, float, float, float] | None = None):
     """The matplotlib Figure of *cv*: sized to its extent plus *margin* points, axes filling it."""
-    import sys
-
-    import matplotlib
-
-    if "matplotlib.pyplot" not in sys.modules:
-        matplotlib.use("Agg")  # no GUI backend is ever needed; pyplot users keep theirs
+    # No backend is chosen: a bare Figure saves to SVG/PNG without one, and a notebook's or
+    # pyplot user's backend stays theirs.
     from matplotlib.collections import LineCollection
     from matplotlib.figure import Figure
     from matplotlib.lines import Line2D

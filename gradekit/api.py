@@ -1,0 +1,192 @@
+"""The Python API: what the commands do, for notebooks and scripts (the CLI is a thin layer over it).
+
+    import gradekit
+    p = gradekit.load_problem("ch5-ex5-3")              # bank id or YAML path
+    v = gradekit.sample(p, seed=123)                     # or student="1001", assignment="hw5.yaml"
+    r = gradekit.solve(v)                                # r.answers["T"].value, .unit; r.checks
+    vs = gradekit.sample_many(p, seeds=range(10_000))    # batched
+    rs = gradekit.solve_many(vs)                         # rs.answers["T"]: an array (answer unit); rs.ok
+    fig = gradekit.figure(v, "scene")                    # a matplotlib Figure
+
+Every function raises `gradekit.errors.GradekitError` (with file, line and field) for data a user
+can fix. Nothing here imports matplotlib, typst or click until a figure, a document or a command
+needs it, and importing gradekit never changes matplotlib's backend.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from gradekit.bank.model import Problem
+    from gradekit.pipeline import Result, ResultBatch
+    from gradekit.sampling import Variant, VariantBatch
+
+
+def load_problem(spec: str | Path, bank: str | Path | None = None) -> Problem:
+    """A problem of the bank by id (``"ch5-ex5-3"``), or a problem YAML file by path."""
+    from gradekit.bank.registry import resolve
+
+    return resolve(str(spec), bank)
+
+
+def _problem(p: Problem | str | Path) -> Problem:
+    return p if hasattr(p, "parameters") else load_problem(p)
+
+
+def sample(
+    problem: Problem | str,
+    *,
+    seed: int | None = None,
+    student: str | None = None,
+    assignment: str | Path | None = None,
+    manifest: str | Path | None = None,
+    course: str = "",
+    salt: str = "",
+    redraw: int = 0,
+) -> Variant:
+    """One variant: from *seed*, a *student*'s (of *assignment*: its course, salt and re-draws,
+    from *manifest* when given), or the published values when neither is given."""
+    p = _problem(problem)
+    if assignment is not None:
+        if student is None:
+            from gradekit.errors import GradekitError
+
+            raise GradekitError("expected a student with an assignment, got none", path=str(assignment))
+        from gradekit.assignment import sheet_variant
+
+        return sheet_variant(assignment, p.id, student, manifest)
+    from gradekit.sampling import variant
+
+    return variant(p, course=course, salt=salt, student=student, seed=seed, redraw=redraw)
+
+
+def sample_many(
+    problem: Problem | str,
+    seeds: Iterable[int] | None = None,
+    *,
+    students: list[str] | None = None,
+    course: str = "",
+    salt: str = "",
+) -> VariantBatch:
+    """One variant per seed (or per student of *course* and *salt*), drawn and solved in batches.
+
+    A seed with no acceptable draw is not an error: ``ok[i]`` is False and ``reason(i)`` says why.
+    """
+    from gradekit.sampling import sample_many as draw
+
+    p = _problem(problem)
+    if seeds is None and students is None:
+        from gradekit.errors import GradekitError
+
+        raise GradekitError("expected seeds or students, got neither")
+    return draw(p, None if seeds is None else list(seeds), course=course, salt=salt, students=students)
+
+
+def solve(variant: Variant | Problem | str, values: dict[str, float] | None = None) -> Result:
+    """A variant's solution (made once, when it was drawn), or a problem solved at *values*."""
+    if hasattr(variant, "result"):
+        return variant.result
+    from gradekit.pipeline import published_values, solve_problem
+
+    p = _problem(variant)
+    return solve_problem(p, {**published_values(p), **(values or {})})
+
+
+def solve_many(variants: VariantBatch | Problem | str, values: dict | None = None) -> VariantBatch | ResultBatch:
+    """Many solutions: those of a `VariantBatch` (already solved while drawing: nothing is solved
+    twice), or a problem solved for arrays of *values* in one batch (e.g. a crank angle over a turn).
+
+    Either way ``.answers[key]`` is an array in the answer's unit and ``.ok`` masks refused variants.
+    """
+    if hasattr(variants, "rows"):
+        return variants
+    import numpy as np
+
+    from gradekit.pipeline import published_values
+    from gradekit.pipeline import solve_many as batch
+
+    p = _problem(variants)
+    vals = {**published_values(p), **(values or {})}
+    n = max((np.size(v) for v in vals.values()), default=1)
+    return batch(p, vals, n)
+
+
+def figure(variant: Variant | Result, name: str = "scene", case: str | None = None):
+    """A matplotlib Figure of a variant: ``"scene"`` (the sheet's figure), ``"true-scale"``, or a key
+    figure by its name (`figure_names`). The caller saves or shows it."""
+    from gradekit import figures
+
+    result = variant.result if hasattr(variant, "result") else variant
+    if name in ("scene", "true-scale"):
+        return figures.scene(result, case, true_scale=name == "true-scale")
+    from gradekit.figures.key import key_figure_specs
+
+    specs = {slug: make for slug, _caption, make in key_figure_specs(result)}
+    if name not in specs:
+        from gradekit.errors import GradekitError
+
+        raise GradekitError(f"expected a figure name ({', '.join(['scene', 'true-scale', *specs])}), got {name!r}")
+    return specs[name]()
+
+
+def figure_names(variant: Variant | Result) -> list[str]:
+    """The figures `figure` can draw for this variant."""
+    from gradekit.figures.key import key_figure_specs
+
+    result = variant.result if hasattr(variant, "result") else variant
+    return ["scene", "true-scale", *(slug for slug, _c, _m in key_figure_specs(result))]
+
+
+def generate(
+    assignment: str | Path,
+    roster: str | Path,
+    out: str | Path,
+    *,
+    jobs: int = 1,
+    student: str | None = None,
+    keys: bool = True,
+    progress: bool = False,
+):
+    """What ``gradekit generate`` does: every student's sheet, answer template and worked key, the
+    key CSV, the combined PDFs and the manifest, written into *out*. Returns the run's summary."""
+    from gradekit.documents import generate as run
+
+    return run(Path(assignment), Path(roster), Path(out), jobs=jobs, student=student, keys=keys, progress=progress)
+
+
+def grade(
+    assignment: str | Path,
+    roster: str | Path,
+    submissions: str | Path,
+    out: str | Path,
+    *,
+    manifest: str | Path | None = None,
+    reveal: bool = False,
+    bank: str | Path | None = None,
+    warn=None,
+):
+    """What ``gradekit grade`` does: grade every submission against the class's keys and write
+    grades, LMS exports, feedback and the report into *out*. Returns the batch result.
+
+    *warn* receives each warning line (bank changes since the manifest); ignored when None.
+    """
+    from gradekit.assignment import check_manifest, class_keys, load_assignment, redraws_from_manifest
+    from gradekit.grading.batch import grade_batch
+    from gradekit.roster import read_roster
+
+    asg = load_assignment(assignment, bank)
+    students = read_roster(Path(roster))
+    redraws = None
+    if manifest:
+        for note in check_manifest(asg, Path(manifest)):
+            if warn is not None:
+                warn(note)
+        redraws = redraws_from_manifest(Path(manifest))
+    keys, _ = class_keys(asg, [s.student_id for s in students], redraws)
+    titles = {it.label: f"{it.label}: {it.problem.title}" for it in asg.items}
+    return grade_batch(
+        keys, students, Path(submissions), Path(out), assignment_title=asg.title, reveal=reveal, problem_titles=titles
+    )
