@@ -53,20 +53,7 @@ def _scalar_table(d: dict) -> str:
 
 
 def solver_md(res: dict) -> str:
-    lines = [
-        f"{res['positions']} random positions per kind (tests/mech_random.py), median of {res['runs']} runs. "
-        "Pipeline = build (closed-form positions on jets) + assemble + condition number + solve + virtual-work "
-        "check; ceiling = one batched `numpy.linalg.solve` of the same stacked systems.",
-        "",
-        "| kind | unknowns | pipeline positions/s | batched-solve ceiling/s | ceiling ÷ pipeline |",
-        "|---|---|---|---|---|",
-    ]
-    lines += [
-        f"| {r['kind']} | {r['unknowns']} | {r['per_second']:,.0f} | {r['ceiling_per_second']:,.0f} "
-        f"| ×{r['ratio']:,.0f} |"
-        for r in res["rows"]
-    ]
-    return "\n".join(lines)
+    return res["markdown"]
 
 
 def _in_child(module: str, quick: bool, limit: float) -> dict:
