@@ -196,8 +196,8 @@ def bank_show(problem: str, student: str | None, course: str, salt: str, bank: s
 def bank_check(ids: tuple[str, ...], variants: int, class_size: int, bank: str | None) -> None:
     """Stress-test problems (bank ids or YAML paths, as for solve): every variant assembles, solves, checks
     and grades its own key."""
-    from gradekit.bank.check import check_bank, check_problem
     from gradekit.bank.registry import resolve
+    from gradekit.bankcheck import check_bank, check_problem
 
     paths = [i for i in ids if i.endswith((".yaml", ".yml")) or Path(i).is_file()]
     named = [i for i in ids if i not in paths]

@@ -24,6 +24,7 @@ from gradekit.bank import expr
 from gradekit.bank.schema import Parameter, Problem
 from gradekit.errors import GradekitError, SamplingError
 from gradekit.mechanics.forces import VW_LIMIT
+from gradekit.mistakes import mistakes_many
 from gradekit.pipeline import Context, Result, ResultBatch, published_values, round_display, sig_round, solve_many
 
 MAX_DRAWS = 400
@@ -142,10 +143,8 @@ def check_many(problem: Problem, values: dict, n: int) -> tuple[np.ndarray, Resu
         if c.gradable:
             for a in batch.answer_list:
                 if a.unit != "deg":
-                    reject(ok & (np.abs(a.value) < c.gradable * a.band()), "gradable")
+                    reject(ok & (np.abs(a.value) < c.gradable * c.band(a)), "gradable")
         if c.distinguish:
-            from gradekit.mistakes import mistakes_many
-
             found = mistakes_many(batch, values)
             for name, keys in c.distinguish:
                 for k in keys:
@@ -155,7 +154,7 @@ def check_many(problem: Problem, values: dict, n: int) -> tuple[np.ndarray, Resu
                             gap = np.zeros(n)
                         else:
                             gap = np.where(m.changed, np.abs(a.spec.tolerance.difference(m.value, a.value)), 0.0)
-                        reject(ok & (gap < c.distinguish_factor * a.band()), f"distinguish: {name} on {k}")
+                        reject(ok & (gap < c.distinguish_factor * c.band(a)), f"distinguish: {name} on {k}")
         if c.answer_min_fraction:
             by_unit: dict[str, list[np.ndarray]] = {}
             for a in batch.answer_list:

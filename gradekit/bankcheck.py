@@ -1,4 +1,5 @@
-"""`gradekit bank check`: draw many variants of each problem and check every one of them.
+"""`gradekit bank check`: draw many variants of each problem and check every one of them (above the bank:
+it uses sampling and reporting, which the bank itself never imports).
 
 For each variant: it assembles, solves, passes the virtual-work check, stays inside the problem's
 conditioning bounds, its key grades itself 100 % and every answer moved just outside its
