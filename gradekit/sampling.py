@@ -327,6 +327,13 @@ def variant(
     return v
 
 
+def given(problem: Problem, values: dict[str, float], *, seed: int | None = None, redraw: int = 0) -> Variant:
+    """The variant with these drawn *values* (as recorded when it was drawn), solved: no re-draw."""
+    batch = solve_many(problem, values, 1)
+    batch.take(0)  # raises the variant's geometry error
+    return Variant(problem, dict(values), seed, 0, batch, 0, dict(values), redraw)
+
+
 def class_variants(
     problem: Problem,
     course: str,

@@ -13,15 +13,7 @@ from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from gradekit.assignment import (
-    Assignment,
-    class_redraws,
-    keys_for,
-    load_assignment,
-    manifest,
-    seeds_of,
-    student_variant,
-)
+from gradekit.assignment import Assignment, class_keys, keys_for, load_assignment, manifest, seeds_of
 from gradekit.csvsafe import StagedFolder, atomic_write, write_csv
 from gradekit.documents import typeset
 from gradekit.documents.context import Picture, Solved, build_context
@@ -29,6 +21,7 @@ from gradekit.errors import GradekitError
 from gradekit.grading.exports import safe_names
 from gradekit.report import fmt
 from gradekit.roster import Student, read_roster
+from gradekit.sampling import given
 
 log = logging.getLogger("gradekit")
 
@@ -55,6 +48,7 @@ class _Job:
     out: str
     keys: bool
     redraws: dict = field(default_factory=dict)  # {student: {label: re-draw counter}}
+    values: dict = field(default_factory=dict)  # {student: {label: the variant's drawn values}}
 
 
 @dataclass
@@ -112,16 +106,19 @@ def generate(
     out = stage.root
     for sub in ("students", "keys", BUILD) if keys else ("students", BUILD):
         (out / sub).mkdir(parents=True, exist_ok=True)
-    # The same variants grading recomputes: explicit re-draws plus the class de-duplication.
-    redraws = class_redraws(asg, [s.student_id for s in students])
-    job = _Job(str(Path(assignment)), str(out), keys, redraws)
+    # The same variants grading recomputes: explicit re-draws plus the class de-duplication, drawn
+    # and solved once here for the whole class; workers get each variant's values, not a re-draw.
+    _, variants = class_keys(asg, [s.student_id for s in students], with_mistakes=False, need_keys=False)
+    redraws = {sid: {label: v.redraw for label, v in per.items()} for sid, per in variants.items()}
+    values = {sid: {label: v.values for label, v in per.items()} for sid, per in variants.items()}
+    job = _Job(str(Path(assignment)), str(out), keys, redraws, values)
     summary = GenerateSummary(final, len(chosen))
     done: dict[str, _Done] = {}
     work = [(s, names[s.student_id]) for s in chosen]
     with stage:
         with _bar(len(work), progress) as bar:
             if jobs <= 1 or len(work) <= 1:
-                _init(job, asg)
+                _init(job, asg, variants)
                 for s, safe in work:
                     done[s.student_id] = _one(s, safe)
                     bar.update(1)
@@ -138,7 +135,7 @@ def generate(
         rows = []
         for s in students:  # key.csv always covers the whole class, in roster order
             d = done.get(s.student_id)
-            rows += d.key_rows if d else _key_rows(asg, s, redraws[s.student_id])
+            rows += d.key_rows if d else _key_rows(asg, s, variants[s.student_id])
         write_csv(out / "key.csv", KEY_HEADER, rows)
         seeds = {s.student_id: seeds_of(asg, s.student_id, redraws[s.student_id]) for s in students}
         data = manifest(asg, [s.student_id for s in students], seeds)
@@ -199,7 +196,7 @@ def _bar(n: int, progress: bool):
 _STATE: dict = {}
 
 
-def _init(job: _Job, asg: Assignment | None = None) -> None:
+def _init(job: _Job, asg: Assignment | None = None, variants: dict | None = None) -> None:
     out = Path(job.out)
     root = out / BUILD
     root.mkdir(parents=True, exist_ok=True)
@@ -209,6 +206,7 @@ def _init(job: _Job, asg: Assignment | None = None) -> None:
         out=out,
         root=root,
         compiler=typeset.Compiler(root),
+        variants=variants or {},
         fonts=typeset.available_fonts(),
     )
 
@@ -229,7 +227,9 @@ def _one(s: Student, safe: str) -> _Done:
     build.mkdir(parents=True, exist_ok=True)
     solved = []
     for item in asg.items:
-        v = student_variant(asg, item, s.student_id, job.redraws[s.student_id][item.label])
+        v = _STATE["variants"].get(s.student_id, {}).get(item.label) or given(
+            item.problem, job.values[s.student_id][item.label], redraw=job.redraws[s.student_id][item.label]
+        )
         scenes, pics = _pictures(v.result, item.label, build, safe, job.keys, warnings, s)
         solved.append(Solved(item, v, tuple(scenes), tuple(pics)))
     folder = out / "students" / safe
@@ -273,10 +273,10 @@ def _key_row(e) -> list:
     ]
 
 
-def _key_rows(asg: Assignment, s: Student, redraws: dict[str, int]) -> list[list]:
+def _key_rows(asg: Assignment, s: Student, variants: dict) -> list[list]:
     rows = []
     for item in asg.items:
-        v = student_variant(asg, item, s.student_id, redraws[item.label])
+        v = variants[item.label]
         rows += [_key_row(e) for e in keys_for(asg, item, s.student_id, v, with_mistakes=False)]
     return rows
 
