@@ -20,12 +20,14 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from gradekit import units
+from gradekit.assembly import Context
 from gradekit.bank import expr
 from gradekit.bank.schema import Parameter, Problem
 from gradekit.errors import GradekitError, SamplingError
 from gradekit.mechanics.forces import VW_LIMIT
 from gradekit.mistakes import mistakes_many
-from gradekit.pipeline import Context, Result, ResultBatch, published_values, round_display, sig_round, solve_many
+from gradekit.parameters import published_values, round_display, sig_round
+from gradekit.pipeline import Result, ResultBatch, solve_many
 
 MAX_DRAWS = 400
 

@@ -1,0 +1,331 @@
+"""Answers phase: solved batches → named results → each answer's value, unit and tolerance scale.
+
+`flat_results` names every quantity a mechanism reports (``F[1,2].mag``, ``aG[2].angle``,
+``driver``…; see ``of:`` in problem_bank/README.md) lazily, so only what a problem asks for is
+computed. `Result` is one variant as `gradekit solve` reports it; `ResultBatch` many.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from gradekit.bank.schema import Problem
+from gradekit.errors import ConditioningError, GeometryError
+from gradekit.mechanics.forces import Solution, Solutions
+from gradekit.mechanics.model import Batched, Refusals
+
+
+@dataclass
+class CaseResult:
+    """The solution of one case (position) of a problem, with its flat named results in SI."""
+
+    name: str | None
+    values: dict[str, float]
+    solution: Solution
+    results: dict[str, tuple[float, str]] = field(default_factory=dict)
+
+
+class Answers(list):
+    """The answers of a variant in the problem's order; ``answers["T"]`` also finds one by key."""
+
+    def __getitem__(self, k):
+        if isinstance(k, str):
+            for a in self:
+                if a.key == k:
+                    return a
+            raise KeyError(k)
+        return super().__getitem__(k)
+
+
+@dataclass
+class Answer:
+    key: str
+    value: float
+    unit: str
+    description: str
+    sign: str
+    points: float
+    tolerance: object
+    of: str
+    case: str | None
+    scale: float = 0.0  # the variant's largest answer of the same dimension (for tolerance floors)
+    base_key: str = ""  # the problem's answer key (``key`` carries a case suffix for multi-case answers)
+
+
+@dataclass
+class Result:
+    """Everything `gradekit solve` reports for one variant."""
+
+    problem: Problem
+    values: dict[str, float]
+    cases: list[CaseResult]
+    answers: Answers
+
+    @property
+    def virtual_work_residual(self) -> float:
+        return max(c.solution.virtual_work_residual for c in self.cases)
+
+    @property
+    def condition_number(self) -> float:
+        return max(c.solution.condition_number for c in self.cases)
+
+    @property
+    def transmission_angle(self) -> float:
+        return min(c.solution.linkage.transmission for c in self.cases)
+
+    @property
+    def checks(self) -> dict[str, float]:
+        """The cross-checks of the solve: virtual-work residual, condition number, transmission angle."""
+        return {
+            "virtual_work_residual": self.virtual_work_residual,
+            "condition_number": self.condition_number,
+            "transmission_angle": self.transmission_angle,
+        }
+
+
+def _group_label(problem: Problem, group: str) -> str:
+    if group.startswith("inertia:"):
+        return f"inertia[{problem.label(group.split(':', 1)[1])}]"
+    return group
+
+
+class Results(Mapping):
+    """Named results of a batch, ``name -> (array over variants, SI unit)``, each computed on first use.
+
+    A mechanism reports dozens of quantities (every force in every superposition part, every
+    point's velocity…) and a problem asks for a few: those are the only ones computed.
+    """
+
+    def __init__(self) -> None:
+        self._items: dict[str, object] = {}
+
+    def put(self, name: str, make) -> None:
+        """Register *make* (a callable returning (values, unit)) or a computed (values, unit) pair."""
+        self._items[name] = make
+
+    def __getitem__(self, name: str) -> tuple[np.ndarray, str]:
+        item = self._items[name]
+        if callable(item):
+            item = self._items[name] = item()
+        return item
+
+    def __contains__(self, name: object) -> bool:
+        return name in self._items
+
+    def __iter__(self):
+        return iter(self._items)
+
+    def __len__(self) -> int:
+        return len(self._items)
+
+    def setdefault(self, name: str, value):
+        if name not in self._items:
+            self._items[name] = value
+        return self[name]
+
+    def row(self, i: int) -> RowResults:
+        return RowResults(self, i)
+
+
+class RowResults(Mapping):
+    """One variant's view of `Results`: ``name -> (float, SI unit)``."""
+
+    def __init__(self, parent: Results, i: int) -> None:
+        self._parent, self._i = parent, i
+
+    def __getitem__(self, name: str) -> tuple[float, str]:
+        values, unit = self._parent[name]
+        return float(values[self._i]), unit
+
+    def __contains__(self, name: object) -> bool:
+        return name in self._parent
+
+    def __iter__(self):
+        return iter(self._parent)
+
+    def __len__(self) -> int:
+        return len(self._parent)
+
+    def setdefault(self, name: str, value):
+        if name not in self._parent:
+            self._parent.put(name, (np.full(self._i + 1, value[0]), value[1]))
+        return self[name]
+
+
+def flat_results(problem: Problem, sol: Solutions) -> Results:
+    """Name every reported quantity of every variant (see ``of:`` in problem_bank/README.md); SI."""
+    link = sol.linkage
+    lab = problem.label
+    n = sol.n
+    out = Results()
+
+    def arr(x) -> np.ndarray:
+        return np.broadcast_to(np.asarray(x, float), (n,))
+
+    def vector(name: str, x, y, unit: str) -> None:
+        def xy():
+            return arr(x() if callable(x) else x), arr(y() if callable(y) else y)
+
+        out.put(name + ".x", lambda: (xy()[0], unit))
+        out.put(name + ".y", lambda: (xy()[1], unit))
+        out.put(name + ".mag", lambda: (np.hypot(*xy()), unit))
+        out.put(name + ".angle", lambda: (np.degrees(np.arctan2(xy()[1], xy()[0])) % 360.0, "deg"))
+        out.put(name, lambda: out[name + ".mag"])
+
+    drv_unit = "N*m" if link.driver.kind == "torque" else "N"
+    out.put("driver", (sol.driver, drv_unit))
+    out.put("transmission", (arr(link.transmission), "deg"))
+    groups = {None: sol.total, **{g: sol.x[:, :, k] for k, g in enumerate(sol.group_names)}}
+    for gname, x in groups.items():
+        suffix = "" if gname is None else "@" + _group_label(problem, gname)
+        if gname is not None:
+            out.put("driver" + suffix, (x[:, -1], drv_unit))
+        for j in link.joints:
+            u = sol.joint(j.name, x)
+            if hasattr(j, "axis"):
+                n_, c = u[:, 0], u[:, 1]
+                ax = arr(j.axis.v)
+
+                def fx(n_=n_, ax=ax):
+                    return n_ * -np.sin(ax)
+
+                def fy(n_=n_, ax=ax):
+                    return n_ * np.cos(ax)
+
+                a, b = j.guide, j.block
+                out.put(f"M[{lab(a)},{lab(b)}]{suffix}", (c, "N*m"))
+                out.put(f"M[{lab(b)},{lab(a)}]{suffix}", lambda c=c: (-c, "N*m"))
+            else:
+                fx, fy, a, b = u[:, 0], u[:, 1], j.a, j.b
+            vector(f"F[{lab(a)},{lab(b)}]{suffix}", fx, fy, "N")
+            vector(f"F[{lab(b)},{lab(a)}]{suffix}", _neg(fx), _neg(fy), "N")
+    for name, st in sol.states.items():
+        L = lab(name)
+        g = np.broadcast_to(st.a_g, (n, 2))
+        v = np.broadcast_to(st.v_g, (n, 2))
+        out.put(f"theta[{L}]", lambda st=st: (np.degrees(arr(st.angle)) % 360.0, "deg"))
+        out.put(f"omega[{L}]", (arr(st.omega), "rad/s"))
+        out.put(f"alpha[{L}]", (arr(st.alpha), "rad/s**2"))
+        vector(f"aG[{L}]", g[:, 0], g[:, 1], "m/s**2")
+        vector(f"vG[{L}]", v[:, 0], v[:, 1], "m/s")
+
+        def fi(k, st=st):
+            return lambda: np.broadcast_to(st.inertia_force, (n, 2))[:, k]
+
+        vector(f"Fi[{L}]", fi(0), fi(1), "N")
+        out.put(f"Ci[{L}]", lambda st=st: (arr(st.inertia_couple), "N*m"))
+        out.put(f"h[{L}]", lambda st=st: (np.nan_to_num(arr(st.offset), posinf=0.0, neginf=0.0), "m"))
+    for pname, pt in link.points.items():
+        P = problem.point(pname)
+        vector(f"v[{P}]", pt.x.d, pt.y.d, "m/s")
+        vector(f"a[{P}]", pt.x.dd, pt.y.dd, "m/s**2")
+    return out
+
+
+def _neg(x):
+    return (lambda: -x()) if callable(x) else -x
+
+
+@dataclass
+class CaseBatch:
+    """One case (position) of a problem solved for every variant of a batch."""
+
+    name: str | None
+    values: dict[str, np.ndarray]
+    solutions: Solutions
+    results: Results
+
+
+@dataclass
+class AnswerBatch:
+    """One answer of every variant: values (in the answer's unit) and the variant's scale."""
+
+    key: str
+    value: np.ndarray
+    unit: str
+    spec: object
+    case: str | None
+    scale: np.ndarray = field(default_factory=lambda: np.zeros(0))
+
+    def band(self) -> np.ndarray:
+        """Half-width of each variant's acceptance band (its tolerance with the floor resolved)."""
+        return self.spec.tolerance.bands(self.value, self.scale)
+
+
+@dataclass
+class ResultBatch(Batched):
+    """A batch of variants of one problem, solved together.
+
+    ``answers[key]`` is an array of every variant's value in the answer's unit; ``ok`` masks the
+    refused variants, ``reason(i)`` says why one was refused. ``take(i)`` is one variant's `Result`.
+    """
+
+    problem: Problem
+    values: dict[str, np.ndarray]
+    cases: list[CaseBatch]
+    answer_list: list[AnswerBatch]
+    refused: Refusals
+
+    @property
+    def answers(self) -> dict[str, np.ndarray]:
+        return {a.key: a.value for a in self.answer_list}
+
+    @property
+    def units(self) -> dict[str, str]:
+        return {a.key: a.unit for a in self.answer_list}
+
+    def reason(self, i: int) -> str:
+        return self.refused.reason(i)
+
+    @property
+    def virtual_work_residual(self) -> np.ndarray:
+        return np.maximum.reduce([c.solutions.virtual_work_residual for c in self.cases])
+
+    @property
+    def condition_number(self) -> np.ndarray:
+        return np.maximum.reduce([c.solutions.condition_number for c in self.cases])
+
+    def condition_above(self, limit: float) -> np.ndarray:
+        """Where any case's condition number exceeds *limit* (an SVD only where bounds cannot tell)."""
+        return np.logical_or.reduce([c.solutions.conditioning.above(limit) for c in self.cases])
+
+    @property
+    def transmission_angle(self) -> np.ndarray:
+        return np.minimum.reduce([np.broadcast_to(c.solutions.linkage.transmission, (self.n,)) for c in self.cases])
+
+    def take(self, i: int) -> Result:
+        """Variant *i* as a `Result`; raises its `GeometryError` when it was refused."""
+        pr = self.problem
+        if self.refused.mask[i]:
+            ill = any(c.solutions.ill_conditioned[i] for c in self.cases)
+            cls = ConditioningError if ill else GeometryError
+            raise cls(f"{pr.id}: {self.reason(i)}", path=pr.path, field="mechanism")
+        cases = [
+            CaseResult(
+                c.name,
+                {k: float(v[i]) for k, v in c.values.items()},
+                c.solutions.at(i),
+                c.results.row(i),
+            )
+            for c in self.cases
+        ]
+        answers = Answers(
+            Answer(
+                a.key,
+                float(a.value[i]),
+                a.unit,
+                a.spec.description,
+                a.spec.sign,
+                a.spec.points,
+                a.spec.tolerance.resolve(float(a.scale[i])),
+                a.spec.of,
+                a.case,
+                float(a.scale[i]),
+                base_key=a.spec.key,
+            )
+            for a in self.answer_list
+        )
+        return Result(pr, {k: float(v[i]) for k, v in self.values.items()}, cases, answers)

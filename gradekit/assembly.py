@@ -1,0 +1,165 @@
+"""Assembly phase: a problem and one variant's values (or a batch's arrays) → the mechanism and its loads.
+
+Fields of the problem that name a single parameter take it through its unit; literal numbers and
+expressions are read in the problem's default unit for the field's dimension (``units:``). The
+mechanics core is fed SI and never sees a problem file.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from gradekit import units
+from gradekit.bank import expr
+from gradekit.bank.schema import ANGLE_PARAMS, Problem, Value
+from gradekit.errors import ProblemError
+from gradekit.mechanics.mechanisms import Motion, build_many
+from gradekit.mechanics.model import Analysis, Linkage, Load, MassProps
+from gradekit.parameters import rows_of
+
+SI = {
+    "length": "m",
+    "force": "N",
+    "mass": "kg",
+    "inertia": "kg*m**2",
+    "torque": "N*m",
+    "angle": "rad",
+    "angular_velocity": "rad/s",
+    "angular_acceleration": "rad/s**2",
+    "acceleration": "m/s**2",
+}
+
+
+def _evaluate(text: str, values: dict, n: int):
+    """An expression over (batched) parameter values: vectorised when numpy can, else per variant."""
+    try:
+        with np.errstate(all="ignore"):
+            out = expr.evaluate(text, values)
+        if np.ndim(out) in (0, 1) and np.isfinite(out).all():
+            return out
+    except Exception:  # math functions and comparisons take scalars only: evaluate per variant
+        pass
+    if n == 1 or not any(np.ndim(v) for v in values.values()):
+        return float(expr.evaluate(text, {k: float(np.ravel(v)[0]) for k, v in values.items()}))
+    return np.array([float(expr.evaluate(text, row)) for row in rows_of(values, n)])
+
+
+@dataclass
+class Context:
+    """Resolves problem fields to SI numbers for one variant, or for a batch of *n* (arrays)."""
+
+    problem: Problem
+    values: dict
+    n: int = 1
+
+    def si(self, v: Value | None, dim: str, where: str, default: float = 0.0):
+        if v is None:
+            return default
+        pr = self.problem
+        if isinstance(v, str) and v in pr.parameters:
+            try:
+                return units.convert(self.values[v], pr.parameters[v].unit, SI[dim])
+            except Exception as exc:
+                raise ProblemError(
+                    f"expected a {dim.replace('_', ' ')} unit for parameter {v!r}, got "
+                    f"{pr.parameters[v].unit!r} ({exc})",
+                    path=pr.path,
+                    field=where,
+                ) from None
+        try:
+            num = float(v) if not isinstance(v, str) else _evaluate(v, self.values, self.n)
+        except expr.ExprError as exc:
+            raise ProblemError(str(exc), path=pr.path, field=where) from None
+        return units.convert(num, pr.units[dim], SI[dim])
+
+
+def length_formatter(problem: Problem):
+    unit = problem.units["length"]
+    k = units.factor("m", unit)
+    return lambda x: f"{x * k:.4g} {units.pretty(unit)}"
+
+
+def build_linkage(problem: Problem, values: dict, unit_speed: bool = False, n: int = 1) -> Linkage:
+    """The mechanism of *problem* at *values* (floats, or arrays of *n*), with its exact kinematics.
+
+    Variants that cannot be assembled are refused in the linkage's ``refused`` (never raised).
+    """
+    ctx = Context(problem, values, n)
+    geo = {
+        k: ctx.si(v, "angle" if k in ANGLE_PARAMS else "length", f"mechanism.geometry.{k}")
+        for k, v in problem.geometry.items()
+        if k != "ram_branch"
+    }
+    if "ram_branch" in problem.geometry:
+        geo["ram_branch"] = 1 if float(problem.geometry["ram_branch"]) >= 0 else -1
+    theta = ctx.si(problem.inputs["theta"], "angle", "mechanism.input.theta")
+    omega = ctx.si(problem.inputs.get("omega"), "angular_velocity", "mechanism.input.omega")
+    alpha = ctx.si(problem.inputs.get("alpha"), "angular_acceleration", "mechanism.input.alpha")
+    if problem.analysis == "static" or unit_speed:
+        omega, alpha = 1.0, 0.0  # virtual motion: velocity ratios for the virtual-work check
+    return build_many(
+        problem.kind,
+        geo,
+        Motion(theta, omega, alpha),
+        problem.branch,
+        length_formatter(problem),
+        problem.driver,
+        n=n,
+    )
+
+
+def build_analysis(problem: Problem, values: dict, n: int = 1) -> Analysis:
+    ctx = Context(problem, values, n)
+    loads = []
+    for i, ld in enumerate(problem.loads):
+        w = f"loads[{i}]"
+        rel = ld.relative_angle
+        if ld.magnitude is not None:
+            mag = ctx.si(ld.magnitude, "force", f"{w}.magnitude")
+            ang = ctx.si(ld.angle, "angle", f"{w}.angle")
+            force = (mag, ang) if rel else (mag * np.cos(ang), mag * np.sin(ang))
+        else:
+            force = (ctx.si(ld.fx, "force", f"{w}.fx"), ctx.si(ld.fy, "force", f"{w}.fy"))
+            rel = False
+        loads.append(
+            Load(
+                ld.name,
+                ld.body,
+                force,
+                ctx.si(ld.torque, "torque", f"{w}.torque"),
+                ld.at,
+                ctx.si(ld.along, "length", f"{w}.along"),
+                ctx.si(ld.across, "length", f"{w}.across"),
+                rel,
+            )
+        )
+    gravity = None
+    if problem.gravity is not None:
+        g = ctx.si(problem.gravity["g"], "acceleration", "gravity.g")
+        a = ctx.si(problem.gravity.get("angle", -90.0), "angle", "gravity.angle")
+        gravity = (g * np.cos(a), g * np.sin(a))
+    g_w = (
+        ctx.si(problem.weight_g, "acceleration", "weight_g")
+        if problem.weight_g is not None
+        else np.hypot(*gravity)
+        if gravity
+        else 9.80665
+    )
+    mass = {}
+    for m in problem.mass:
+        w = f"mass.{m.body}"
+        kg = (
+            ctx.si(m.mass, "mass", f"{w}.mass")
+            if m.mass is not None
+            else ctx.si(m.weight, "force", f"{w}.weight") / g_w
+        )
+        mass[m.body] = MassProps(
+            kg,
+            ctx.si(m.inertia, "inertia", f"{w}.inertia"),
+            m.at,
+            ctx.si(m.along, "length", f"{w}.along"),
+            ctx.si(m.across, "length", f"{w}.across"),
+        )
+    return Analysis(problem.analysis == "dynamic", gravity, mass, tuple(loads), max_condition=1e7)

@@ -1,0 +1,75 @@
+"""Parameters phase: a variant's values completed (derived parameters) and rounded as printed.
+
+The values a student sees are the values the solver uses: derived parameters (``expr``) are
+evaluated from the drawn ones and rounded like every printed number (`round_display`).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from gradekit.bank import expr
+from gradekit.bank.schema import Parameter, Problem, order
+from gradekit.errors import ProblemError
+from gradekit.mechanics.model import Refusals
+
+
+def rows_of(values: dict, n: int) -> list[dict[str, float]]:
+    return [{k: float(v[i]) if np.ndim(v) else float(v) for k, v in values.items()} for i in range(n)]
+
+
+def fill(problem: Problem, values: dict[str, float]) -> dict[str, float]:
+    """Complete *values* with the derived parameters (``expr``), rounded as they are printed."""
+    out = dict(values)
+    for name in order(problem.parameters):
+        p = problem.parameters[name]
+        if p.expr and name not in values:
+            try:
+                v = float(expr.evaluate(p.expr, out))
+            except expr.ExprError as exc:
+                raise ProblemError(str(exc), path=problem.path, field=f"parameters.{name}.expr") from None
+            out[name] = round_display(p, v)
+    return out
+
+
+def fill_many(problem: Problem, values: dict, n: int, bad: Refusals) -> dict[str, np.ndarray]:
+    """`fill` for a batch: arrays of *n* values; a variant whose derived value is undefined is refused."""
+    out = {k: np.broadcast_to(np.asarray(v, float), (n,)) for k, v in values.items()}
+    for name in order(problem.parameters):
+        p = problem.parameters[name]
+        if not p.expr or name in values:
+            continue
+        col = np.full(n, np.nan)
+        for i, row in enumerate(rows_of(out, n)):
+            if bad.mask[i]:
+                continue
+            try:
+                col[i] = round_display(p, float(expr.evaluate(p.expr, row)))
+            except (expr.ExprError, ValueError, ZeroDivisionError, OverflowError) as exc:
+                bad.add(np.arange(n) == i, lambda _i, f=f"parameters.{name}.expr", e=str(exc): f"derived: {f}: {e}")
+        out[name] = col
+    return out
+
+
+def round_display(p: Parameter, v: float) -> float:
+    """Round *v* the way parameter *p* is printed (its decimals or significant figures)."""
+    if p.decimals is not None:
+        return round(v, p.decimals)
+    if p.sigfigs:
+        return sig_round(v, p.sigfigs)
+    if p.step:
+        return round(round(v / p.step) * p.step, 10)
+    return sig_round(v, 6)
+
+
+def sig_round(v: float, sig: int) -> float:
+    if v == 0 or not math.isfinite(v):
+        return v
+    return round(v, sig - 1 - int(math.floor(math.log10(abs(v)))))
+
+
+def published_values(problem: Problem) -> dict[str, float]:
+    """The fixed ('as published') values of every non-derived parameter."""
+    return {n: p.value for n, p in problem.parameters.items() if not p.expr and p.value is not None}
