@@ -11,13 +11,14 @@ import math
 import re
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar
 
 from gradekit import tolerances, units
 from gradekit.bank import expr
 from gradekit.bank.yamlfile import LineDict, LineList
 from gradekit.errors import ErrorList, GradekitError, ProblemError
 from gradekit.keys import Tolerance
+from gradekit.mechanics.mechanisms import ANGLE_PARAMS as MECHANISM_ANGLES
 from gradekit.mechanics.mechanisms import KINDS
 
 Value = float | str  # a literal number (in the problem's default unit) or a parameter/expression
@@ -33,7 +34,7 @@ DIMENSIONS = {
     "angular_acceleration": "rad/s**2",
     "acceleration": "m/s**2",
 }
-ANGLE_PARAMS = {"frame_angle", "slide_angle"}
+ANGLE_PARAMS = MECHANISM_ANGLES  # the registry's angle parameters (gradekit.mechanics.mechanisms)
 SHOW = {"dimensions", "loads", "com", "accelerations", "velocities", "angles", "torque", "labels"}
 METHODS = ("analytical", "graphical")
 ANALYSES = ("static", "dynamic")
@@ -127,6 +128,20 @@ class Constraints:
     gradable: float = 2.0  # every non-angle answer at least this many bands from zero
     distinguish: tuple[tuple[str, tuple[str, ...]], ...] = ()  # (mistake, answer keys)
     distinguish_factor: float = 2.0
+    bands: dict[str, Tolerance] = field(default_factory=dict)  # answer key -> band draws are judged by
+    FIXED_BAND: ClassVar[dict[bool, Tolerance]] = {  # an answer with no stated band (True: angles)
+        False: Tolerance("relative", 0.02, floor=0.01),
+        True: Tolerance("relative", 0.0, 1.0, period=360.0),
+    }
+
+    def band(self, a):
+        """Each variant's half-width of the band the sampler judges answer *a* (an `AnswerBatch`)
+        by: ``constraints.bands`` of the file, else the answer's explicit ``tolerance:``, else
+        `FIXED_BAND`; never a measured default, so re-deriving tolerances changes no student's values."""
+        tol = self.bands.get(a.spec.key)
+        if tol is None:
+            tol = a.spec.tolerance if a.spec.tolerance_explicit else self.FIXED_BAND[a.unit == "deg"]
+        return tol.bands(a.value, a.scale)
 
 
 @dataclass(frozen=True)
@@ -730,6 +745,7 @@ def _constraints(c: _Collector, data: dict, names: set[str]) -> Constraints:
                 "gradable",
                 "distinguish",
                 "distinguish_factor",
+                "bands",
             ),
             data,
             "constraints",
@@ -777,6 +793,19 @@ def _constraints(c: _Collector, data: dict, names: set[str]) -> Constraints:
             )
             continue
         distinguish.append((name, tuple(ks)))
+    bands = {}
+    bnode = m.get("bands", {})
+    for k in c.mapping(bnode, "constraints.bands", (), tuple(sorted(map(str, keys))), m, "bands") or {}:
+        w = f"constraints.bands.{k}"
+        angle = isinstance(bnode[k], dict) and "deg" in bnode[k]
+        b = c.mapping(bnode[k], w, (), ("deg",) if angle else ("rel", "abs", "floor"), bnode, k)
+        if b is not None and "deg" in b:
+            bands[k] = Tolerance("relative", 0.0, c.number(b, "deg", f"{w}.deg", positive=True) or 0.0, period=360.0)
+        elif b is not None:
+            r, ab, fl = (c.number(b, f, f"{w}.{f}", 0.0) or 0.0 for f in ("rel", "abs", "floor"))
+            if not (0 <= r < 1 and ab >= 0 and 0 <= fl < 1 and r + ab + fl > 0):
+                c.err(bnode, k, w, f"expected rel and floor from 0 to 1 and abs ≥ 0, not all 0; got {_show(b)}")
+            bands[k] = Tolerance("relative", r, ab, floor=fl)
     return Constraints(
         c.number(m, "transmission_min", "constraints.transmission_min", 0.0) or 0.0,
         c.number(m, "condition_max", "constraints.condition_max", 1e4, positive=True) or 1e4,
@@ -787,6 +816,7 @@ def _constraints(c: _Collector, data: dict, names: set[str]) -> Constraints:
         c.number(m, "gradable", "constraints.gradable", 2.0) or 0.0,
         tuple(distinguish),
         c.number(m, "distinguish_factor", "constraints.distinguish_factor", 2.0, positive=True) or 2.0,
+        bands,
     )
 
 
