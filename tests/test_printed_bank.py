@@ -285,3 +285,23 @@ def test_sheet_says_how_to_type_each_unit(whole_bank):
     spelled = {r["unit"] for r in rows if units.pretty(r["unit"]) != r["unit"]}
     for u in spelled:
         assert f"{units.pretty(u)} is {u}" in flat, f"the sheet does not say how to type {u}"
+
+
+def test_points_step_of_the_assignment_is_kept_in_key_csv(tmp_path):
+    """`points_step: 1` gives whole answer points that add up to the problem's points."""
+    data = _assignment(["ch5-ex5-3", "ch5-dyn-slider-crank"], "step")
+    data["problems"][0]["points_step"] = 1
+    data["problems"][1]["points"] = 7
+    asg = tmp_path / "a.yaml"
+    asg.write_text(yaml.safe_dump(data, sort_keys=False), encoding="utf-8")
+    roster = tmp_path / "r.csv"
+    roster.write_text("student_id,name\nt1,T One\n", encoding="utf-8")
+    out = tmp_path / "out"
+    generate(asg, roster, out, keys=False, progress=False)
+    rows = list(csv.DictReader((out / "key.csv").open(encoding="utf-8")))
+    p1 = [float(r["points"]) for r in rows if r["problem"] == "p1"]
+    p2 = [float(r["points"]) for r in rows if r["problem"] == "p2"]
+    assert all(x == int(x) for x in p1) and sum(p1) == 10
+    assert all(x * 2 == int(x * 2) for x in p2) and sum(p2) == 7
+    sheet = _flat(_text(out / "students" / "t1" / "assignment.pdf"))
+    assert "p1. Dynamic force analysis of a four-bar linkage" in sheet and "(7 points)" in sheet

@@ -173,3 +173,21 @@ def test_solve_with_assignment_prints_the_sheets_values(tmp_path):
     assert plain.exit_code == 0 and "not any assignment's sheet" in plain.stderr
     bad = runner.invoke(main, ["solve", "p9", "--student", "1003", "--assignment", str(asg)])
     assert bad.exit_code == 1 and "expected a problem of the assignment" in bad.output
+
+
+def test_band_hint_says_how_far_in_tolerances_never_the_amount():
+    from gradekit.grading.compare import grade_student
+    from gradekit.grading.exports import feedback_markdown
+    from gradekit.grading.reader import Answer, Submission
+
+    answers = (Answer("p1.dir", "12", "deg", 12.0, "deg", 2), Answer("p1.F", "103", "N", 103.0, "N", 3),
+               Answer("p1.T", "2.1", "N*m", 2.1, "N*m", 4))
+    grade = grade_student(Student("e5", "E"), _keys("e5", 10.0, 100.0), Submission("e5.csv", "e5", answers))
+    text = feedback_markdown(grade, {}, "HW", reveal=False, hint="band")
+    off = {line.split("|")[1].strip(): line.split("|")[5].strip() for line in text.splitlines()
+           if line.startswith("| p1.")}
+    assert off == {
+        "p1.dir": "too far counterclockwise, 2 to 10 times the tolerance away",  # 2° off, ±0.5°
+        "p1.F": "too high, within twice the tolerance",  # 3 % off, ±2 %
+        "p1.T": "too high, 2 to 10 times the tolerance away",  # 5 % off, ±2 %
+    }

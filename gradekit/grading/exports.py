@@ -126,7 +126,7 @@ def write_moodle(path: Path, grades: Sequence[StudentGrade], assignment_title: s
     write_csv(path, header, rows)
 
 
-def _answer_lines(r: AnswerResult, reveal: bool) -> dict[str, str]:
+def _answer_lines(r: AnswerResult, reveal: bool, hint: str = "direction") -> dict[str, str]:
     """The cells of one feedback row, as plain text."""
     unit = pretty(r.entry.unit)
     read = ""
@@ -145,7 +145,7 @@ def _answer_lines(r: AnswerResult, reveal: bool) -> dict[str, str]:
         verdict = "not graded"
     else:
         verdict = "wrong"
-    off = _off(r, unit, reveal)
+    off = _off(r, unit, reveal, hint)
     diagnosis = f"{r.diagnosis.name}: {r.diagnosis.description}" if r.diagnosis else ""
     return {
         "key": r.entry.key,
@@ -159,22 +159,31 @@ def _answer_lines(r: AnswerResult, reveal: bool) -> dict[str, str]:
     }
 
 
-def _off(r: AnswerResult, unit: str, reveal: bool) -> str:
+HINTS = ("direction", "band")  # what feedback without --reveal says about a wrong answer
+
+
+def _off(r: AnswerResult, unit: str, reveal: bool, hint: str = "direction") -> str:
     """How far off a wrong answer is, without handing a student their key unless *reveal*.
 
     An angle's difference is in degrees, wrapped at 360° (never a percentage of the angle).
-    Without *reveal*: only the direction ("too high") and that it is outside the tolerance;
-    a signed amount would let the student back out the key value.
+    Without *reveal*: the direction ("too high") and that it is outside the tolerance, and with
+    *hint* ``band`` a coarse band in multiples of the tolerance; never a signed amount, which
+    would let the student back out the key value.
     """
     if r.error is None or r.abs_error is None or r.correct:
         return ""
     degrees = r.angle and unit in ("rad",)
     amount = r.abs_error * (180.0 / math.pi if degrees else 1.0)
     if not reveal:
-        if r.angle:
-            way = "counterclockwise" if r.error > 0 else "clockwise"
-            return f"too far {way}, outside the tolerance"
-        return f"too {'high' if r.error > 0 else 'low'}, outside the tolerance"
+        way = (f"too far {'counterclockwise' if r.error > 0 else 'clockwise'}" if r.angle
+               else f"too {'high' if r.error > 0 else 'low'}")
+        band = r.entry.tolerance.band(r.entry.value)
+        if hint == "band" and band > 0:
+            times = r.abs_error / band
+            coarse = ("within twice the tolerance" if times <= 2 else "2 to 10 times the tolerance away"
+                      if times <= 10 else "more than 10 times the tolerance away")
+            return f"{way}, {coarse}"
+        return f"{way}, outside the tolerance"
     if r.angle:
         return f"{fmt(amount, 3)}° {'counterclockwise' if r.error > 0 else 'clockwise'} (wrapped at 360°)"
     if r.rel_error is not None:
@@ -199,7 +208,7 @@ def _md_cell(text: str) -> str:
 
 
 def feedback_markdown(
-    grade: StudentGrade, titles: Mapping[str, str], assignment_title: str, reveal: bool
+    grade: StudentGrade, titles: Mapping[str, str], assignment_title: str, reveal: bool, hint: str = "direction"
 ) -> str:
     """One student's feedback as Markdown (every cell escaped: students wrote some of it)."""
     columns = _COLUMNS + ([("correct", "Correct answer")] if reveal else [])
@@ -224,7 +233,7 @@ def feedback_markdown(
         ]
         for r in grade.results:
             if r.entry.problem == problem.problem:
-                cells = _answer_lines(r, reveal)
+                cells = _answer_lines(r, reveal, hint)
                 out.append("| " + " | ".join(_md_cell(cells[k]) for k, _ in columns) + " |")
         out.append("")
     if grade.issues:
@@ -241,7 +250,9 @@ _CSS = (
 )
 
 
-def feedback_html(grade: StudentGrade, titles: Mapping[str, str], assignment_title: str, reveal: bool) -> str:
+def feedback_html(
+    grade: StudentGrade, titles: Mapping[str, str], assignment_title: str, reveal: bool, hint: str = "direction"
+) -> str:
     """One student's feedback as a standalone HTML page (every text escaped)."""
     e = html.escape
     columns = _COLUMNS + ([("correct", "Correct answer")] if reveal else [])
@@ -267,7 +278,7 @@ def feedback_html(grade: StudentGrade, titles: Mapping[str, str], assignment_tit
         out.append("<table><tr>" + "".join(f"<th>{e(t)}</th>" for _, t in columns) + "</tr>")
         for r in grade.results:
             if r.entry.problem == problem.problem:
-                cells = _answer_lines(r, reveal)
+                cells = _answer_lines(r, reveal, hint)
                 css = cells["verdict"].split()[0]
                 out.append(
                     f'<tr class="{css}">' + "".join(f"<td>{e(cells[k])}</td>" for k, _ in columns) + "</tr>"
