@@ -49,6 +49,9 @@ class Assignment:
     path: str
     sha256: str
     redraws: dict[str, dict[str, int]] = dataclasses.field(default_factory=dict)
+    # what feedback without --reveal says of a wrong answer: "direction" (too high/low, outside
+    # the tolerance) or "band" (and a coarse band in multiples of the tolerance)
+    feedback: str = "direction"
 
 
 def load_assignment(path: Path | str, bank: Path | str | None = None) -> Assignment:
@@ -60,7 +63,7 @@ def load_assignment(path: Path | str, bank: Path | str | None = None) -> Assignm
         data,
         "",
         ("title", "course", "salt", "problems"),
-        ("term", "due", "instructions", "submission", "bank", "redraws"),
+        ("term", "due", "instructions", "submission", "bank", "redraws", "feedback"),
     )
     problems = load_bank(bank or (path.parent / data["bank"] if isinstance(data.get("bank"), str) else None))
     items = []
@@ -107,6 +110,9 @@ def load_assignment(path: Path | str, bank: Path | str | None = None) -> Assignm
     for k in ("title", "course", "salt"):
         if not isinstance(data.get(k), str) or not data.get(k):
             c.err(data, k, k, f"expected text, got {data.get(k)!r}")
+    feedback = data.get("feedback", "direction")
+    if feedback not in ("direction", "band"):
+        c.err(data, "feedback", "feedback", f"expected direction or band, got {feedback!r}")
     if c.errors:
         raise ErrorList(c.errors)
     return Assignment(
@@ -121,6 +127,7 @@ def load_assignment(path: Path | str, bank: Path | str | None = None) -> Assignm
         str(path),
         hashlib.sha256(path.read_bytes()).hexdigest(),
         redraws,
+        str(feedback),
     )
 
 
