@@ -13,9 +13,9 @@ import numpy as np
 
 from gradekit import units
 from gradekit.bank import expr
-from gradekit.bank.schema import ANGLE_PARAMS, Problem, Value
+from gradekit.bank.schema import Problem, Value
 from gradekit.errors import ProblemError
-from gradekit.mechanics.mechanisms import Motion, build_many
+from gradekit.mechanics.mechanisms import KINDS, Motion, build_many
 from gradekit.mechanics.model import Analysis, Linkage, Load, MassProps
 from gradekit.parameters import rows_of
 
@@ -87,8 +87,9 @@ def build_linkage(problem: Problem, values: dict, unit_speed: bool = False, n: i
     Variants that cannot be assembled are refused in the linkage's ``refused`` (never raised).
     """
     ctx = Context(problem, values, n)
+    angles = KINDS[problem.kind].angles
     geo = {
-        k: ctx.si(v, "angle" if k in ANGLE_PARAMS else "length", f"mechanism.geometry.{k}")
+        k: ctx.si(v, "angle" if k in angles else "length", f"mechanism.geometry.{k}")
         for k, v in problem.geometry.items()
         if k != "ram_branch"
     }

@@ -25,6 +25,7 @@ from gradekit.bank import expr
 from gradekit.bank.schema import Parameter, Problem
 from gradekit.errors import GradekitError, SamplingError
 from gradekit.mechanics.forces import VW_LIMIT
+from gradekit.mechanics.mechanisms import KINDS
 from gradekit.mistakes import mistakes_many
 from gradekit.parameters import published_values, round_display, sig_round
 from gradekit.pipeline import Result, ResultBatch, solve_many
@@ -81,8 +82,10 @@ def _evaluate_rows(text: str, values: dict, n: int) -> np.ndarray:
 def _grashof(problem: Problem, full: dict, n: int) -> np.ndarray:
     """True where a four-bar variant violates the problem's Grashof requirement."""
     ctx = Context(problem, full, n)
-    names = ("crank", "coupler", "rocker", "frame")
-    lens = {k: np.broadcast_to(ctx.si(problem.geometry[k], "length", k), (n,)) for k in names}
+    crank, coupler, rocker, frame = KINDS[problem.kind].loop
+    lens = {
+        k: np.broadcast_to(ctx.si(problem.geometry[k], "length", k), (n,)) for k in (crank, coupler, rocker, frame)
+    }
     stack = np.stack(list(lens.values()))
     s, l_ = stack.min(axis=0), stack.max(axis=0)
     pq = stack.sum(axis=0) - s - l_
@@ -92,9 +95,9 @@ def _grashof(problem: Problem, full: dict, n: int) -> np.ndarray:
         return grashof
     bad = ~grashof
     if want == "crank-rocker":
-        bad |= s != lens["crank"]
+        bad |= s != lens[crank]
     if want == "double-crank":
-        bad |= s != lens["frame"]
+        bad |= s != lens[frame]
     return bad
 
 
@@ -125,7 +128,8 @@ def check_many(problem: Problem, values: dict, n: int) -> tuple[np.ndarray, Resu
     full = batch.values
     for text, message in c.require:
         reject(~_evaluate_rows(text, full, n), f"require: {message or text}")
-    if problem.kind in ("fourbar", "fourbar_quick_return") and c.grashof:
+    kind = KINDS[problem.kind]
+    if kind.loop and c.grashof:
         reject(_grashof(problem, full, n), "grashof")
     reject(refused, lambda i: "assembles" if "assembled" in batch.reason(i) else "conditioning")
     ok = ~refused
@@ -133,11 +137,12 @@ def check_many(problem: Problem, values: dict, n: int) -> tuple[np.ndarray, Resu
         reject(ok & (batch.virtual_work_residual > VW_LIMIT), "virtual_work")
         reject(ok & batch.condition_above(c.condition_max), "condition_max")
         reject(ok & (batch.transmission_angle < c.transmission_min), "transmission_min")
-        if c.dead_centre_min and problem.kind == "slider_crank":
+        if c.dead_centre_min and kind.dead_centre:
+            pivot, pin, end = kind.dead_centre
             for case in batch.cases:
                 pts = case.solutions.linkage.points
-                crank = (pts["A"].x.v - pts["O2"].x.v, pts["A"].y.v - pts["O2"].y.v)
-                rod = (pts["B"].x.v - pts["A"].x.v, pts["B"].y.v - pts["A"].y.v)
+                crank = (pts[pin].x.v - pts[pivot].x.v, pts[pin].y.v - pts[pivot].y.v)
+                rod = (pts[end].x.v - pts[pin].x.v, pts[end].y.v - pts[pin].y.v)
                 cross = crank[0] * rod[1] - crank[1] * rod[0]
                 dot = crank[0] * rod[0] + crank[1] * rod[1]
                 ang = np.degrees(np.abs(np.arctan2(cross, dot)))

@@ -9,6 +9,7 @@ import numpy as np
 from gradekit import units
 from gradekit.figures.canvas import BLACK, BLUE, GREEN, GREY, PURPLE, VERMILION, Canvas
 from gradekit.figures.mech import BAR, PIN, com_marker, draw_linkage, mech_extent
+from gradekit.mechanics.mechanisms import KINDS
 from gradekit.mechanics.model import GROUND, Prismatic
 from gradekit.pipeline import CaseResult, Result
 from gradekit.report import fmt
@@ -17,11 +18,6 @@ PT_PER_M = 72.0 / 0.0254  # paper points per metre
 FIT = (300.0, 220.0)  # drawing box of a figure not to scale, in points
 ARROW = (24.0, 52.0)  # shortest and longest force arrow, in points
 
-# geometry parameter -> the segment it dimensions (point names), per mechanism
-DIMS = {
-    "crank": ("O2", "A"), "coupler": ("A", "B"), "rod": ("A", "B"), "rocker": ("O4", "B"),
-    "frame": ("O2", "O4"), "lever": ("O4", "C"), "link": ("C", "D"), "arm": ("O4", "C"),
-}
 
 
 def show_value(problem, values: dict[str, float], name: str) -> str:
@@ -266,10 +262,11 @@ def _build(result: Result, case: str | None, k_paper: float | None) -> Canvas:
                 cv.label(f"G{pr.label(body)}", T(st.g), BLACK, clear=5.0, prefer=T(st.g) - mid)
     # dimension labels of given lengths
     if "dimensions" in show:
+        dims = KINDS[pr.kind].dimensions
         for gname, value in pr.geometry.items():
-            if not (isinstance(value, str) and value in pr.parameters) or gname not in DIMS:
+            if not (isinstance(value, str) and value in pr.parameters) or gname not in dims:
                 continue
-            a, b = DIMS[gname]
+            a, b = dims[gname]
             if a not in P or b not in P:
                 continue
             pa, pb = P[a], P[b]

@@ -239,9 +239,9 @@ def motion_polygon(result: Result, cr: CaseResult, which: str) -> Canvas:
 
 
 def _bars(link: Linkage) -> dict[str, list[tuple[str, str]]]:
-    from gradekit.figures.mech import BARS
+    from gradekit.mechanics.mechanisms import KINDS
 
-    return BARS.get(link.kind, {})
+    return KINDS[link.kind].bars
 
 
 def torque_cycle(result: Result, n: int = 72):

@@ -8,25 +8,13 @@ from collections.abc import Callable
 import numpy as np
 
 from gradekit.figures.canvas import BLACK, LIGHT, Canvas
+from gradekit.mechanics.mechanisms import KINDS
 from gradekit.mechanics.model import GROUND, Linkage, Prismatic, Revolute
 
 BAR = 5.0  # bar width in points
 PIN = 2.6  # pin radius in points
 BLOCK = (24.0, 14.0)  # slider block length and height in points
 SLOT_BLOCK = (15.0, 9.0)
-
-# bars of each body: pairs of point names
-BARS: dict[str, dict[str, list[tuple[str, str]]]] = {
-    "crank": {"crank": [("O2", "A")]},
-    "fourbar": {"crank": [("O2", "A")], "coupler": [("A", "B")], "rocker": [("O4", "B")]},
-    "slider_crank": {"crank": [("O2", "A")], "rod": [("A", "B")]},
-    "slotted_lever": {"crank": [("O2", "A")], "lever": [("O4", "C")]},
-    "whitworth": {"crank": [("O2", "A")], "lever": [("O4", "C")], "link": [("C", "D")]},
-    "crank_shaper": {"crank": [("O2", "A")], "lever": [("O4", "C")], "link": [("C", "D")]},
-    "fourbar_quick_return": {"crank": [("O2", "A")], "coupler": [("A", "B")],
-                             "rocker": [("O4", "B"), ("O4", "C")], "link": [("C", "D")]},
-}
-SLOTTED = {"slotted_lever", "whitworth", "crank_shaper"}
 
 ToPt = Callable[[np.ndarray], np.ndarray]
 
@@ -89,14 +77,15 @@ def draw_linkage(cv: Canvas, link: Linkage, T: ToPt, bodies: set[str] | None = N
     pos = positions(link)
     P = {k: T(v) for k, v in pos.items()}
     want = set(link.bodies) if bodies is None else bodies
-    bars = BARS.get(link.kind, {})
+    kind = KINDS[link.kind]
+    bars = kind.bars
     for body, pairs in bars.items():
         if body not in want:
             continue
         for a, b in pairs:
             if a not in P or b not in P:
                 continue
-            slot = body == "lever" and link.kind in SLOTTED
+            slot = body == kind.slotted
             pa, pb = P[a], P[b]
             if slot:  # the slot runs over O4, C and the block at A, whatever their order
                 u = (P["A"] - P["O4"]) / max(float(np.hypot(*(P["A"] - P["O4"]))), 1e-9)

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import functools
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from functools import partial
 
 import numpy as np
@@ -270,9 +270,27 @@ def fourbar_quick_return(p: dict, m: Motion, branch: int, fmt: Fmt, bad: Refusal
     )
 
 
+Bars = dict[str, tuple[tuple[str, str], ...]]
+
+
 @dataclass(frozen=True)
 class Kind:
-    """A mechanism type: its builder, required and optional parameters (SI), and its bodies."""
+    """A mechanism type: everything the rest of gradekit knows about it, in one place.
+
+    Attributes:
+        build: the builder (SI parameters, motion, branch, formatter, refusals) → `Linkage`.
+        required: geometry parameters a problem must give (SI lengths, angles in rad).
+        optional: geometry parameters with their defaults.
+        bodies: the moving bodies, in the order of the equilibrium equations.
+        points: the named points a problem can refer to (and rename with ``points:``).
+        drivers: the bodies a problem may drive (``driver:``); the first is the default.
+        angles: which geometry parameters are angles (the rest are lengths).
+        bars: what a figure draws of each body: segments between named points.
+        slotted: the body drawn as a slotted lever ('' for none).
+        dimensions: which segment each geometry length dimensions in a figure.
+        loop: the four-bar loop (crank, coupler, rocker, frame) a Grashof constraint reads, if any.
+        dead_centre: (pivot, crank pin, slider pin): the crank and rod a dead-centre constraint reads.
+    """
 
     build: Callable[..., Linkage]
     required: tuple[str, ...]
@@ -280,17 +298,48 @@ class Kind:
     bodies: tuple[str, ...]
     points: tuple[str, ...]
     drivers: tuple[str, ...] = ("crank",)
+    angles: tuple[str, ...] = ()
+    bars: Bars = field(default_factory=dict)
+    slotted: str = ""
+    dimensions: dict[str, tuple[str, str]] = field(default_factory=dict)
+    loop: tuple[str, ...] = ()
+    dead_centre: tuple[str, str, str] | tuple[()] = ()
 
 
 _POS = {"x_O2": 0.0, "y_O2": 0.0}
+_CRANK = {"crank": (("O2", "A"),)}
+_FOURBAR_BARS = {**_CRANK, "coupler": (("A", "B"),), "rocker": (("O4", "B"),)}
+_SLOTTED_BARS = {**_CRANK, "lever": (("O4", "C"),)}
+_DIMS = {
+    "crank": ("O2", "A"),
+    "coupler": ("A", "B"),
+    "rod": ("A", "B"),
+    "rocker": ("O4", "B"),
+    "frame": ("O2", "O4"),
+    "lever": ("O4", "C"),
+    "link": ("C", "D"),
+    "arm": ("O4", "C"),
+}
+
+
+def _dims(*names: str) -> dict[str, tuple[str, str]]:
+    return {n: _DIMS[n] for n in names}
+
+
 KINDS: dict[str, Kind] = {
-    "crank": Kind(single_crank, ("crank",), dict(_POS), ("crank",), ("O2", "A")),
+    "crank": Kind(
+        single_crank, ("crank",), dict(_POS), ("crank",), ("O2", "A"), bars=_CRANK, dimensions=_dims("crank")
+    ),
     "fourbar": Kind(
         fourbar,
         ("crank", "coupler", "rocker", "frame"),
         {**_POS, "frame_angle": 0.0},
         ("crank", "coupler", "rocker"),
         ("O2", "A", "B", "O4"),
+        angles=("frame_angle",),
+        bars=_FOURBAR_BARS,
+        dimensions=_dims("crank", "coupler", "rocker", "frame"),
+        loop=("crank", "coupler", "rocker", "frame"),
     ),
     "slider_crank": Kind(
         slider_crank,
@@ -299,6 +348,10 @@ KINDS: dict[str, Kind] = {
         ("crank", "rod", "slider"),
         ("O2", "A", "B"),
         ("crank", "slider"),
+        angles=("slide_angle",),
+        bars={**_CRANK, "rod": (("A", "B"),)},
+        dimensions=_dims("crank", "rod"),
+        dead_centre=("O2", "A", "B"),
     ),
     "slotted_lever": Kind(
         slotted_lever,
@@ -306,6 +359,10 @@ KINDS: dict[str, Kind] = {
         {**_POS, "frame_angle": -np.pi / 2},
         ("crank", "block", "lever"),
         ("O2", "A", "O4", "C"),
+        angles=("frame_angle",),
+        bars=_SLOTTED_BARS,
+        slotted="lever",
+        dimensions=_dims("crank", "frame", "lever"),
     ),
     **{
         name: Kind(
@@ -314,6 +371,10 @@ KINDS: dict[str, Kind] = {
             {**_POS, "frame_angle": -np.pi / 2, "slide_angle": 0.0},
             ("crank", "block", "lever", "link", "ram"),
             ("O2", "A", "O4", "C", "D"),
+            angles=("frame_angle", "slide_angle"),
+            bars={**_SLOTTED_BARS, "link": (("C", "D"),)},
+            slotted="lever",
+            dimensions=_dims("crank", "frame", "lever", "link"),
         )
         for name in ("whitworth", "crank_shaper")
     },
@@ -323,8 +384,13 @@ KINDS: dict[str, Kind] = {
         {**_POS, "frame_angle": 0.0, "slide_angle": 0.0, "ram_branch": 1.0},
         ("crank", "coupler", "rocker", "link", "ram"),
         ("O2", "A", "B", "O4", "C", "D"),
+        angles=("frame_angle", "slide_angle"),
+        bars={**_FOURBAR_BARS, "rocker": (("O4", "B"), ("O4", "C")), "link": (("C", "D"),)},
+        dimensions=_dims("crank", "coupler", "rocker", "frame", "arm", "link"),
+        loop=("crank", "coupler", "rocker", "frame"),
     ),
 }
+ANGLE_PARAMS = frozenset(a for k in KINDS.values() for a in k.angles)
 
 
 def build_many(
