@@ -16,6 +16,7 @@ from gradekit.bank.schema import Problem
 from gradekit.errors import ConditioningError, GeometryError
 from gradekit.mechanics.forces import Solution, Solutions
 from gradekit.mechanics.model import Batched, Refusals
+from gradekit.quantities import BY_NAME as Q
 
 
 @dataclass
@@ -175,9 +176,9 @@ def flat_results(problem: Problem, sol: Solutions) -> Results:
         out.put(name + ".angle", lambda: (np.degrees(np.arctan2(xy()[1], xy()[0])) % 360.0, "deg"))
         out.put(name, lambda: out[name + ".mag"])
 
-    drv_unit = "N*m" if link.driver.kind == "torque" else "N"
+    drv_unit = Q["driver"].si if link.driver.kind == "torque" else Q["F"].si
     out.put("driver", (sol.driver, drv_unit))
-    out.put("transmission", (arr(link.transmission), "deg"))
+    out.put("transmission", (arr(link.transmission), Q["transmission"].si))
     groups = {None: sol.total, **{g: sol.x[:, :, k] for k, g in enumerate(sol.group_names)}}
     for gname, x in groups.items():
         suffix = "" if gname is None else "@" + _group_label(problem, gname)
@@ -196,32 +197,32 @@ def flat_results(problem: Problem, sol: Solutions) -> Results:
                     return n_ * np.cos(ax)
 
                 a, b = j.guide, j.block
-                out.put(f"M[{lab(a)},{lab(b)}]{suffix}", (c, "N*m"))
-                out.put(f"M[{lab(b)},{lab(a)}]{suffix}", lambda c=c: (-c, "N*m"))
+                out.put(f"M[{lab(a)},{lab(b)}]{suffix}", (c, Q["M"].si))
+                out.put(f"M[{lab(b)},{lab(a)}]{suffix}", lambda c=c: (-c, Q["M"].si))
             else:
                 fx, fy, a, b = u[:, 0], u[:, 1], j.a, j.b
-            vector(f"F[{lab(a)},{lab(b)}]{suffix}", fx, fy, "N")
-            vector(f"F[{lab(b)},{lab(a)}]{suffix}", _neg(fx), _neg(fy), "N")
+            vector(f"F[{lab(a)},{lab(b)}]{suffix}", fx, fy, Q["F"].si)
+            vector(f"F[{lab(b)},{lab(a)}]{suffix}", _neg(fx), _neg(fy), Q["F"].si)
     for name, st in sol.states.items():
         L = lab(name)
         g = np.broadcast_to(st.a_g, (n, 2))
         v = np.broadcast_to(st.v_g, (n, 2))
-        out.put(f"theta[{L}]", lambda st=st: (np.degrees(arr(st.angle)) % 360.0, "deg"))
-        out.put(f"omega[{L}]", (arr(st.omega), "rad/s"))
-        out.put(f"alpha[{L}]", (arr(st.alpha), "rad/s**2"))
-        vector(f"aG[{L}]", g[:, 0], g[:, 1], "m/s**2")
-        vector(f"vG[{L}]", v[:, 0], v[:, 1], "m/s")
+        out.put(f"theta[{L}]", lambda st=st: (np.degrees(arr(st.angle)) % 360.0, Q["theta"].si))
+        out.put(f"omega[{L}]", (arr(st.omega), Q["omega"].si))
+        out.put(f"alpha[{L}]", (arr(st.alpha), Q["alpha"].si))
+        vector(f"aG[{L}]", g[:, 0], g[:, 1], Q["aG"].si)
+        vector(f"vG[{L}]", v[:, 0], v[:, 1], Q["vG"].si)
 
         def fi(k, st=st):
             return lambda: np.broadcast_to(st.inertia_force, (n, 2))[:, k]
 
-        vector(f"Fi[{L}]", fi(0), fi(1), "N")
-        out.put(f"Ci[{L}]", lambda st=st: (arr(st.inertia_couple), "N*m"))
-        out.put(f"h[{L}]", lambda st=st: (np.nan_to_num(arr(st.offset), posinf=0.0, neginf=0.0), "m"))
+        vector(f"Fi[{L}]", fi(0), fi(1), Q["Fi"].si)
+        out.put(f"Ci[{L}]", lambda st=st: (arr(st.inertia_couple), Q["Ci"].si))
+        out.put(f"h[{L}]", lambda st=st: (np.nan_to_num(arr(st.offset), posinf=0.0, neginf=0.0), Q["h"].si))
     for pname, pt in link.points.items():
         P = problem.point(pname)
-        vector(f"v[{P}]", pt.x.d, pt.y.d, "m/s")
-        vector(f"a[{P}]", pt.x.dd, pt.y.dd, "m/s**2")
+        vector(f"v[{P}]", pt.x.d, pt.y.d, Q["v"].si)
+        vector(f"a[{P}]", pt.x.dd, pt.y.dd, Q["a"].si)
     return out
 
 

@@ -13,7 +13,7 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, ClassVar
 
-from gradekit import tolerances, units
+from gradekit import quantities, tolerances, units
 from gradekit.bank import expr
 from gradekit.bank.yamlfile import LineDict, LineList
 from gradekit.errors import ErrorList, GradekitError, ProblemError
@@ -39,11 +39,6 @@ SHOW = {"dimensions", "loads", "com", "accelerations", "velocities", "angles", "
 METHODS = ("analytical", "graphical")
 ANALYSES = ("static", "dynamic")
 _ID = re.compile(r"^[a-z0-9][a-z0-9_-]*$")
-_RESULT = re.compile(
-    r"^(param\[[A-Za-z_][A-Za-z0-9_]*\]$|driver|transmission|(F|M)\[[^,\]]+,[^\]]+\]|(aG|vG|Fi|a|v)\[[^\]]+\]|(alpha|omega|theta|Ci|h)\[[^\]]+\])"
-    r"(@[^.]+)?(\.(x|y|mag|angle))?$"
-)
-
 
 @dataclass(frozen=True)
 class Parameter:
@@ -865,12 +860,13 @@ def _answers(c: _Collector, data: dict, method: str, cases: dict) -> tuple[Answe
         of = m.get("of")
         if isinstance(of, str) and of.startswith("param[") and of[6:-1] not in data.get("parameters", {}):
             c.err(m, "of", f"{w}.of", f"expected param[<a parameter name>], got {of!r}")
-        if not isinstance(of, str) or not _RESULT.match(of):
+        if not isinstance(of, str) or quantities.parse(of) is None:
             c.err(
                 m,
                 "of",
                 f"{w}.of",
-                f"expected a result such as driver, F[3,2].mag, aG[2].angle, h[3], driver@P; got {_show(of)}",
+                f"expected a result such as driver, F[3,2].mag, aG[2].angle, h[3], driver@P "
+                f"(the quantities: {quantities.grammar()}); got {_show(of)}",
             )
         unit = c.unit(m, "unit", f"{w}.unit")
         case = m.get("case")

@@ -1,0 +1,108 @@
+"""The answer quantities a problem can ask for (the ``of:`` grammar), one row each.
+
+A row states the quantity's name, what goes in its brackets, its SI unit (of the value, or of each
+component of a vector), whether it is a vector (``.x``, ``.y``, ``.mag``, ``.angle``), its answer
+kind (which measured tolerance default applies) and how people read it. Validation
+(`gradekit.bank.schema`), the producer (`gradekit.answers.flat_results`), the tolerance defaults
+(`gradekit.tolerances.answer_kind`) and the documentation read this table.
+
+Any quantity may carry ``@group`` (one superposition part: a load's name, ``gravity`` or
+``inertia[k]``) before its component.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True)
+class Quantity:
+    """One answer quantity of the ``of:`` grammar."""
+
+    name: str
+    brackets: str  # what goes in [..]: "i,j" (two link labels), "k" (a link label), "P" (a point), "" (none)
+    si: str
+    vector: bool
+    kind: str  # force, torque, kinematic, length, angle (vector components of forces: force-component)
+    means: str
+
+
+QUANTITIES: tuple[Quantity, ...] = (
+    Quantity("driver", "", "N*m", False, "torque", "the driving torque (or force, for a slider driver)"),
+    Quantity("transmission", "", "deg", False, "angle", "the smallest acute transmission angle"),
+    Quantity("F", "i,j", "N", True, "force", "the force of link i on link j at their joint"),
+    Quantity("M", "i,j", "N*m", False, "torque", "the couple of link i on link j at a sliding joint"),
+    Quantity("aG", "k", "m/s**2", True, "kinematic", "the acceleration of link k's centre of mass"),
+    Quantity("vG", "k", "m/s", True, "kinematic", "the velocity of link k's centre of mass"),
+    Quantity("Fi", "k", "N", True, "force", "the inertia force −m·a_G of link k"),
+    Quantity("a", "P", "m/s**2", True, "kinematic", "the acceleration of point P"),
+    Quantity("v", "P", "m/s", True, "kinematic", "the velocity of point P"),
+    Quantity("alpha", "k", "rad/s**2", False, "kinematic", "the angular acceleration of link k (CCW +)"),
+    Quantity("omega", "k", "rad/s", False, "kinematic", "the angular velocity of link k (CCW +)"),
+    Quantity("theta", "k", "deg", False, "angle", "the angle of link k, CCW from +x"),
+    Quantity("Ci", "k", "N*m", False, "torque", "the inertia couple −I·α of link k"),
+    Quantity("h", "k", "m", False, "length", "the offset I·α/(m·a_G) of link k's equivalent inertia force"),
+    Quantity("param", "name", "", False, "length", "a parameter's own value (in its unit)"),
+)
+BY_NAME = {q.name: q for q in QUANTITIES}
+COMPONENTS = ("x", "y", "mag", "angle")
+
+_BRACKETS = {"i,j": r"[^,\]]+,[^\]]+", "k": r"[^\]]+", "P": r"[^\]]+", "name": r"[A-Za-z_][A-Za-z0-9_]*"}
+_GRAMMAR = re.compile(
+    r"^(?P<name>[A-Za-z]+)(\[(?P<args>[^\]]*)\])?(@(?P<group>[^.]+))?(\.(?P<component>[a-z]+))?$"
+)
+
+
+@dataclass(frozen=True)
+class Asked:
+    """An ``of:`` text, parsed: its quantity, bracket text, superposition group and component."""
+
+    quantity: Quantity
+    args: str
+    group: str
+    component: str
+
+    @property
+    def kind(self) -> str:
+        """The answer kind: vector components of forces are ``force-component``; angles ``angle``."""
+        if self.component == "angle":
+            return "angle"
+        if self.quantity.kind == "force" and self.component in ("x", "y"):
+            return "force-component"
+        return self.quantity.kind
+
+    @property
+    def si(self) -> str:
+        return "deg" if self.component == "angle" else self.quantity.si
+
+
+def parse(of: str) -> Asked | None:
+    """The quantity an ``of:`` text asks for, or None when the text is not in the grammar."""
+    m = _GRAMMAR.match(of.strip()) if isinstance(of, str) else None
+    if not m:
+        return None
+    q = BY_NAME.get(m["name"])
+    if q is None:
+        return None
+    args = m["args"]
+    if q.brackets:
+        if args is None or not re.fullmatch(_BRACKETS[q.brackets], args):
+            return None
+    elif args is not None:
+        return None
+    component = m["component"] or ""
+    if component and (not q.vector or component not in COMPONENTS):
+        return None
+    if q.name == "param" and (m["group"] or component):
+        return None
+    return Asked(q, args or "", m["group"] or "", component)
+
+
+def grammar() -> str:
+    """One line per quantity, for error messages and documentation."""
+    rows = []
+    for q in QUANTITIES:
+        stem = q.name + (f"[{q.brackets}]" if q.brackets else "")
+        rows.append(stem + ("[.x|.y|.mag|.angle]" if q.vector else "") + f": {q.means}")
+    return "; ".join(rows)
