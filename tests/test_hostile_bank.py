@@ -10,7 +10,8 @@ from click.testing import CliRunner
 from gradekit.cli import main
 
 EX51 = Path("problem_bank/ch5_ex5_1_slider_crank_static.yaml")
-STATEMENT_LINE = 29  # the line of `statement:` in EX51
+# the line of `statement:` in EX51 (errors in the statement are reported there)
+STATEMENT_LINE = 1 + [ln.startswith("statement:") for ln in EX51.read_text(encoding="utf-8").splitlines()].index(True)
 
 
 def run(*args: str):
