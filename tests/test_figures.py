@@ -186,3 +186,10 @@ def test_collinear_force_polygon_is_drawn_side_by_side():
     assert "collinear forces: drawn side by side" in svg_text(svg.encode())
     a, b = (_path_points(svg, gid) for gid in re.findall(r'<g id="(poly-[^"]+)">', svg)[:2])
     assert min(math.hypot(p[0] - q[0], p[1] - q[1]) for p in a for q in b) > 3.0  # not on top of each other
+
+
+def test_a_clockwise_input_speed_is_shown_with_its_value():
+    """ch5-quiz-q2 turns its crank at −w2 (clockwise): the figure shows ω2 = <the student's w2>."""
+    r = result("ch5-quiz-q2", "s7")
+    text = svg_text(figures.to_svg(figures.scene(r)))
+    assert f"ω2 = {fmt(r.values['w2'])} rad/s" in text

@@ -229,9 +229,12 @@ def _build(result: Result, case: str | None, k_paper: float | None) -> Canvas:
     if show & {"velocities", "accelerations"} and o2 is not None:
         for key, r, sym in (("omega", 30.0, "ω"), ("alpha", 40.0, "α")):
             name = pr.inputs.get(key)
+            sign = 1.0
+            if isinstance(name, str) and name.startswith("-") and name[1:].strip() in pr.parameters:
+                name, sign = name[1:].strip(), -1.0  # "-w2": the speed w2, clockwise
             if not (isinstance(name, str) and name in pr.parameters):
                 continue
-            v = values[name]
+            v = sign * values[name]
             a0 = th + 0.6
             torque_arc(cv, o2, r, v if v else 1.0, PURPLE, f"given-{key}", start=a0, sweep=1.3)
             tip = o2 + r * np.array([math.cos(a0 + 0.65), math.sin(a0 + 0.65)])
