@@ -305,3 +305,36 @@ def test_points_step_of_the_assignment_is_kept_in_key_csv(tmp_path):
     assert all(x * 2 == int(x * 2) for x in p2) and sum(p2) == 7
     sheet = _flat(_text(out / "students" / "t1" / "assignment.pdf"))
     assert "p1. Dynamic force analysis of a four-bar linkage" in sheet and "(7 points)" in sheet
+
+
+def test_no_heading_alone_at_a_page_foot_and_no_page_of_stragglers(whole_bank):
+    asg, out, _ = whole_bank
+    for sid in STUDENTS:
+        for path in (out / "students" / sid / "assignment.pdf", out / "keys" / f"{sid}.pdf"):
+            reader = pypdf.PdfReader(str(path))
+            for n, page in enumerate(reader.pages, 1):
+                lines = [x.strip() for x in (page.extract_text() or "").splitlines() if x.strip()]
+                body = [x for x in lines if not re.fullmatch(r"Page \d+", x)]
+                if n > 1:
+                    body = body[1:]  # the running header
+                assert body, f"{path.name} page {n} is empty"
+                assert not re.match(r"p\d+\. ", body[-1]), f"{path.name} page {n} ends with the heading {body[-1]!r}"
+                assert not body[-1].startswith(("Given values", "Solved forces", "Superposition", "Answers")), (
+                    f"{path.name} page {n} ends with a heading whose table is on the next page")
+                if n == len(reader.pages) and n > 1:
+                    assert len(body) > 3 or any("Figure" in x for x in body), (
+                        f"{path.name}: the last page holds only {body}")
+
+
+def test_key_statements_name_the_sheets_figures(whole_bank):
+    asg, out, _ = whole_bank
+    labels = [it.label for it in asg.items]
+    sid = STUDENTS[1]
+    sheet = _text(out / "students" / sid / "assignment.pdf")
+    captions = {int(n): lab for n, lab in re.findall(r"Figure[\s\xa0](\d+): (p\d+):", sheet)}
+    for label, section in _sections(_text(out / "keys" / f"{sid}.pdf"), labels).items():
+        refs = re.findall(r"Figures? (\d+)(?:(?:–| and )(\d+))? of the sheet", _flat(section))
+        assert refs, label
+        for a, b in refs:
+            for n in range(int(a), int(b or a) + 1):
+                assert captions[n] == label
