@@ -124,3 +124,14 @@ def test_feedback_escapes_what_students_wrote() -> None:
     assert "<script>" not in page and "&lt;script&gt;" in page and "&lt;b&gt;1.12&lt;/b&gt;|" in page
     text = feedback_markdown(grade, {}, "HW", reveal=False)
     assert "\\<b\\>1.12\\</b\\>\\|" in text and "\\<script\\>" in text
+
+
+def test_angle_error_is_wrapped_degrees_never_relative() -> None:
+    entry = KeyEntry("1", "p1", "p1.dir", 0.3, "deg", Tolerance("relative", rel=0.0, abs=0.5, period=360.0))
+    near = compare(entry, Answer("p1.dir", "359.9", "", 359.9, "", 2))
+    assert near.correct and near.rel_error is None and near.abs_error == pytest.approx(0.4)
+    far = compare(entry, Answer("p1.dir", "2.3", "", 2.3, "", 2))
+    assert not far.correct and far.rel_error is None and far.error == pytest.approx(2.0)
+    plain = KeyEntry("1", "p1", "p1.th", 337.4, "deg", Tolerance("relative", rel=0.001))  # no period given
+    r = compare(plain, Answer("p1.th", "-20.6", "", -20.6, "", 3))
+    assert r.rel_error is None and r.abs_error == pytest.approx(2.0)
