@@ -166,26 +166,48 @@ def grade(
     manifest: str | Path | None = None,
     reveal: bool = False,
     bank: str | Path | None = None,
+    recompute_keys: bool = False,
     warn=None,
 ):
     """What ``gradekit grade`` does: grade every submission against the class's keys and write
     grades, LMS exports, feedback and the report into *out*. Returns the batch result.
 
-    *warn* receives each warning line (bank changes since the manifest); ignored when None.
+    With a *manifest*, the keys are those `generate` froze beside it (``keys.json``): nothing is
+    re-sampled, and a later change of the bank, the tolerance table or gradekit changes no grade.
+    *recompute_keys* grades against keys recomputed from the current bank instead (with the
+    manifest's re-draws). *warn* receives each warning line; ignored when None.
     """
-    from gradekit.assignment import check_manifest, class_keys, load_assignment, redraws_from_manifest
+    from gradekit.assignment import check_manifest, class_keys, frozen_keys, load_assignment, redraws_from_manifest
     from gradekit.grading.batch import grade_batch
     from gradekit.roster import read_roster
 
+    def say(text: str) -> None:
+        if warn is not None:
+            warn(text)
+
     asg = load_assignment(assignment, bank)
     students = read_roster(Path(roster))
+    ids = [s.student_id for s in students]
     redraws = None
+    frozen = None
     if manifest:
-        for note in check_manifest(asg, Path(manifest)):
-            if warn is not None:
-                warn(note)
+        notes = check_manifest(asg, Path(manifest))
         redraws = redraws_from_manifest(Path(manifest))
-    keys, _ = class_keys(asg, [s.student_id for s in students], redraws)
+        frozen = None if recompute_keys else frozen_keys(Path(manifest))
+        for note in notes:
+            say(note)
+        if notes and frozen is not None:
+            say("graded against the keys frozen at generation (keys.json); --recompute-keys grades against the "
+                "current bank instead")
+    if frozen is not None:
+        missing = [s for s in ids if s not in frozen]
+        keys = [e for s in ids if s in frozen for e in frozen[s]]
+        if missing:
+            say(f"{len(missing)} roster student(s) have no frozen key (not on the roster at generation: "
+                f"{', '.join(missing[:5])}{'…' if len(missing) > 5 else ''}); their keys are computed now")
+            keys += class_keys(asg, missing, redraws)[0]
+    else:
+        keys, _ = class_keys(asg, ids, redraws)
     titles = {it.label: f"{it.label}: {it.problem.title}" for it in asg.items}
     return grade_batch(
         keys, students, Path(submissions), Path(out), assignment_title=asg.title, reveal=reveal, problem_titles=titles

@@ -219,19 +219,25 @@ def bank_check(ids: tuple[str, ...], variants: int, class_size: int, bank: str |
     "--manifest",
     type=click.Path(exists=True, dir_okay=False),
     default=None,
-    help="manifest.json written by generate: reproduce its variants and report bank changes.",
+    help="manifest.json written by generate: grade against the keys it froze (keys.json) and report what changed.",
 )
 @click.option("--reveal", is_flag=True, help="Show the correct values in the students' feedback.")
+@click.option(
+    "--recompute-keys",
+    is_flag=True,
+    help="With --manifest: grade against keys recomputed from the current bank, not the keys frozen at generation.",
+)
 @_bank_opt
 def grade(
-    assignment: str, roster: str, submissions: str, out: str, manifest: str | None, reveal: bool, bank: str | None
+    assignment: str, roster: str, submissions: str, out: str, manifest: str | None, reveal: bool,
+    recompute_keys: bool, bank: str | None,
 ) -> None:
     """Grade every submission in SUBMISSIONS against keys recomputed from ASSIGNMENT and ROSTER."""
     from gradekit import api
 
     res = api.grade(
         assignment, roster, submissions, out, manifest=manifest, reveal=reveal, bank=bank,
-        warn=lambda note: log.warning("warning: %s", note),
+        recompute_keys=recompute_keys, warn=lambda note: log.warning("warning: %s", note),
     )
     log.info("graded %d of %d students; %d integrity flag(s); results in %s", res.graded, len(res.grades),
              len(res.flags), out)

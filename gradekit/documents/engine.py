@@ -13,6 +13,7 @@ from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from gradekit import frozen
 from gradekit.assignment import Assignment, class_keys, keys_for, load_assignment, manifest, seeds_of
 from gradekit.csvsafe import StagedFolder, atomic_write, write_csv
 from gradekit.documents import typeset
@@ -106,9 +107,10 @@ def generate(
     out = stage.root
     for sub in ("students", "keys", BUILD) if keys else ("students", BUILD):
         (out / sub).mkdir(parents=True, exist_ok=True)
-    # The same variants grading recomputes: explicit re-draws plus the class de-duplication, drawn
-    # and solved once here for the whole class; workers get each variant's values, not a re-draw.
-    _, variants = class_keys(asg, [s.student_id for s in students], with_mistakes=False, need_keys=False)
+    # The class's variants (explicit re-draws plus the class de-duplication) and their keys with the
+    # catalogued mistakes, drawn and solved once here in class-wide batches, then frozen in
+    # keys.json for grading; workers get each variant's values, not a re-draw.
+    class_entries, variants = class_keys(asg, [s.student_id for s in students])
     redraws = {sid: {label: v.redraw for label, v in per.items()} for sid, per in variants.items()}
     values = {sid: {label: v.values for label, v in per.items()} for sid, per in variants.items()}
     job = _Job(str(Path(assignment)), str(out), keys, redraws, values)
@@ -132,13 +134,12 @@ def generate(
                         bar.update(1)
             if student is None:
                 _combine(out, asg, [names[s.student_id] for s in students], keys)
-        rows = []
-        for s in students:  # key.csv always covers the whole class, in roster order
-            d = done.get(s.student_id)
-            rows += d.key_rows if d else _key_rows(asg, s, variants[s.student_id])
-        write_csv(out / "key.csv", KEY_HEADER, rows)
+        # key.csv and keys.json always cover the whole class, in roster order
+        write_csv(out / "key.csv", KEY_HEADER, [_key_row(e) for e in class_entries])
+        frozen_text = frozen.dumps(class_entries)
+        atomic_write(out / frozen.FILE, frozen_text)
         seeds = {s.student_id: seeds_of(asg, s.student_id, redraws[s.student_id]) for s in students}
-        data = manifest(asg, [s.student_id for s in students], seeds)
+        data = manifest(asg, [s.student_id for s in students], seeds, frozen_text)
         atomic_write(out / "manifest.json", json.dumps(data, indent=2, ensure_ascii=False) + "\n")
         shutil.rmtree(out / BUILD, ignore_errors=True)
         stage.commit(
@@ -271,14 +272,6 @@ def _key_row(e) -> list:
         e.description,
         e.sign_convention,
     ]
-
-
-def _key_rows(asg: Assignment, s: Student, variants: dict) -> list[list]:
-    rows = []
-    for item in asg.items:
-        v = variants[item.label]
-        rows += [_key_row(e) for e in keys_for(asg, item, s.student_id, v, with_mistakes=False)]
-    return rows
 
 
 def _font_warnings(s: Student) -> list[str]:

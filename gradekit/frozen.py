@@ -1,0 +1,91 @@
+"""Keys frozen when they are issued: `generate` writes every student's key to ``keys.json`` beside the
+manifest, and `grade --manifest` grades against exactly those keys, never re-sampling.
+
+A later change of the bank, the measured tolerance table or gradekit itself can therefore never
+change what a student is graded against; `grade` names what changed and keeps the frozen keys
+unless the instructor asks for keys recomputed from the current bank (``--recompute-keys``).
+
+Layout (compact: what is the same for the whole class is written once per answer)::
+
+    {"format": 1, "gradekit": "0.1.0",
+     "answers": {"p1.T": {"problem": "p1", "unit": "N*m", "points": 2, "description": …,
+                          "sign": …, "tolerance": {"mode", "rel", "sigfigs", "floor", "period"}}},
+     "mistakes": {"static-answer": "a static answer to a dynamic problem (inertia left out)"},
+     "students": {"1001": {"p1.T": [value, tolerance abs, [[mistake, value], …]]}}}
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from collections.abc import Iterable
+
+from gradekit import __version__
+from gradekit.errors import GradekitError
+from gradekit.keys import KeyEntry, Mistake, Tolerance
+
+FILE = "keys.json"
+FORMAT = 1
+
+
+def dumps(keys: Iterable[KeyEntry]) -> str:
+    """The frozen-keys document of *keys* (every student's entries, in order)."""
+    answers: dict[str, dict] = {}
+    mistakes: dict[str, str] = {}
+    students: dict[str, dict[str, list]] = {}
+    for e in keys:
+        t = e.tolerance
+        answers.setdefault(
+            e.key,
+            {
+                "problem": e.problem,
+                "unit": e.unit,
+                "points": e.points,
+                "description": e.description,
+                "sign": e.sign_convention,
+                "tolerance": {"mode": t.mode, "rel": t.rel, "sigfigs": t.sigfigs, "floor": t.floor, "period": t.period},
+            },
+        )
+        for m in e.mistakes:
+            mistakes.setdefault(m.name, m.description)
+        students.setdefault(e.student_id, {})[e.key] = [e.value, t.abs, [[m.name, m.value] for m in e.mistakes]]
+    doc = {"format": FORMAT, "gradekit": __version__, "answers": answers, "mistakes": mistakes, "students": students}
+    return json.dumps(doc, ensure_ascii=False, separators=(",", ":"), allow_nan=False) + "\n"
+
+
+def loads(text: str, path: str) -> dict[str, list[KeyEntry]]:
+    """Every student's frozen key entries, ``{student: [KeyEntry, …]}``, from a ``keys.json`` text."""
+    try:
+        doc = json.loads(text)
+        if doc.get("format") != FORMAT:
+            raise ValueError(f"format {doc.get('format')!r}, expected {FORMAT}")
+        answers, names = doc["answers"], doc["mistakes"]
+        out: dict[str, list[KeyEntry]] = {}
+        for sid, rows in doc["students"].items():
+            entries = []
+            for key, (value, tol_abs, found) in rows.items():
+                a = answers[key]
+                t = a["tolerance"]
+                tol = Tolerance(t["mode"], t["rel"], tol_abs, t["sigfigs"], t["floor"], t["period"])
+                entries.append(
+                    KeyEntry(
+                        sid,
+                        a["problem"],
+                        key,
+                        float(value),
+                        a["unit"],
+                        tol,
+                        a["points"],
+                        a["description"],
+                        a["sign"],
+                        tuple(Mistake(name, names[name], float(v)) for name, v in found),
+                    )
+                )
+            out[sid] = entries
+        return out
+    except (ValueError, KeyError, TypeError) as exc:
+        raise GradekitError(f"expected the frozen keys written by gradekit generate, got {exc}", path=path) from None
+
+
+def sha256(text: str) -> str:
+    return hashlib.sha256(text.encode("utf-8")).hexdigest()

@@ -1,0 +1,108 @@
+"""Keys are computed once, when the sheets are generated, and frozen: grading with the manifest never
+re-samples, so a later change of the measured tolerance table changes no grade."""
+
+from __future__ import annotations
+
+import csv
+import json
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+import yaml
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _cli(*args: str, cwd: Path) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "gradekit", *args], cwd=cwd, capture_output=True, text=True)
+
+
+def _grades(out: Path) -> dict[str, float]:
+    with open(out / "grades.csv", newline="", encoding="utf-8") as f:
+        rows = list(csv.DictReader(f))
+    col = next(c for c in rows[0] if c.lower().startswith("percent") or c.lower() == "percent")
+    return {r["student_id"]: float(r[col]) for r in rows}
+
+
+@pytest.fixture(scope="module")
+def course(tmp_path_factory):
+    tmp = tmp_path_factory.mktemp("frozen")
+    shutil.copytree(ROOT / "problem_bank", tmp / "bank")
+    (tmp / "hw.yaml").write_text(
+        "title: Frozen\ncourse: MEG373\nsalt: frozen-test\nbank: bank\nproblems:\n  - {id: ch5-ex5-1, points: 3}\n",
+        encoding="utf-8",
+    )
+    (tmp / "roster.csv").write_text("student_id,name\n1001,A\n1002,B\n1003,C\n", encoding="utf-8")
+    r = _cli("generate", "hw.yaml", "--roster", "roster.csv", "--out", "gen", "--no-keys", cwd=tmp)
+    assert r.returncode == 0, r.stderr
+    frozen = json.loads((tmp / "gen" / "keys.json").read_text(encoding="utf-8"))
+    tol = frozen["answers"]["p1.F03"]["tolerance"]
+    subs = tmp / "subs"
+    subs.mkdir()
+    widest = 0.0
+    for sid, rows in frozen["students"].items():
+        with open(subs / f"{sid}.csv", "w", newline="", encoding="utf-8") as f:
+            w = csv.writer(f)
+            w.writerow(["student_id", "key", "value", "unit"])
+            for key, (value, tol_abs, _m) in rows.items():
+                if sid != "1001" and key == "p1.F03":  # 1.5 bands high: outside the frozen band
+                    band = max(tol["rel"] * abs(value), tol_abs)
+                    widest = max(widest, 3 * band / abs(value))
+                    value += 1.5 * band
+                w.writerow([sid, key, repr(value), frozen["answers"][key]["unit"]])
+    (tmp / "wider_rel").write_text(repr(widest), encoding="utf-8")  # a band that admits them
+    return tmp
+
+
+def test_generate_freezes_every_students_key_with_its_hashes(course):
+    manifest = json.loads((course / "gen" / "manifest.json").read_text(encoding="utf-8"))
+    frozen = json.loads((course / "gen" / "keys.json").read_text(encoding="utf-8"))
+    assert set(frozen["students"]) == {"1001", "1002", "1003"}
+    assert manifest["keys"]["file"] == "keys.json" and len(manifest["keys"]["sha256"]) == 64
+    assert len(manifest["tolerances_sha256"]) == 64
+    keys = {(k["student_id"], k["key"]): float(k["value"]) for k in csv.DictReader((course / "gen" / "key.csv").open())}
+    for sid, rows in frozen["students"].items():
+        for key, (value, _abs, _mistakes) in rows.items():
+            assert value == pytest.approx(keys[(sid, key)], rel=1e-9)
+
+
+def test_a_changed_tolerance_table_changes_no_grade_with_the_manifest(course):
+    args = ("grade", "hw.yaml", "--roster", "roster.csv", "--submissions", "subs", "--manifest", "gen/manifest.json")
+    before = _cli(*args, "--out", "g1", cwd=course)
+    assert before.returncode == 0, before.stderr
+    table = course / "bank" / "_tolerances.yaml"
+    original = table.read_text(encoding="utf-8")
+    data = yaml.safe_load(original)
+    for row in data["ch5-ex5-1"].values():
+        row["rel"] = float((course / "wider_rel").read_text())  # a re-derived table with wider bands
+    table.write_text(yaml.safe_dump(data), encoding="utf-8")
+    try:
+        after = _cli(*args, "--out", "g2", cwd=course)
+        recomputed = _cli(*args, "--recompute-keys", "--out", "g3", cwd=course)
+    finally:
+        table.write_text(original, encoding="utf-8")
+    assert after.returncode == 0 and recomputed.returncode == 0, after.stderr + recomputed.stderr
+    assert "tolerance table (_tolerances.yaml) changed" in after.stderr
+    assert "graded against the keys frozen at generation" in after.stderr
+    g1, g2, g3 = _grades(course / "g1"), _grades(course / "g2"), _grades(course / "g3")
+    assert g1 == g2  # frozen: the same marks
+    assert g1["1001"] == pytest.approx(100.0)
+    assert g1["1002"] < 100.0 and g1["1003"] < 100.0  # F03 1.5 bands off is outside the frozen band
+    assert g3["1002"] == pytest.approx(100.0) and g3["1003"] == pytest.approx(100.0)  # the new, wider band
+
+
+def test_an_edited_frozen_key_file_is_refused(course):
+    bad = course / "tampered"
+    shutil.copytree(course / "gen", bad)
+    text = (bad / "keys.json").read_text(encoding="utf-8").replace('"1001"', '"1001"', 1)
+    doc = json.loads(text)
+    first = next(iter(doc["students"]["1001"]))
+    doc["students"]["1001"][first][0] *= 2
+    (bad / "keys.json").write_text(json.dumps(doc), encoding="utf-8")
+    r = _cli("grade", "hw.yaml", "--roster", "roster.csv", "--submissions", "subs", "--manifest",
+             "tampered/manifest.json", "--out", "g4", cwd=course)
+    assert r.returncode == 1
+    assert "keys.json: expected the frozen keys the manifest was written with" in r.stderr
