@@ -106,3 +106,24 @@ def test_an_edited_frozen_key_file_is_refused(course):
              "tampered/manifest.json", "--out", "g4", cwd=course)
     assert r.returncode == 1
     assert "keys.json: expected the frozen keys the manifest was written with" in r.stderr
+
+
+def test_tolerance_floors_compare_answers_of_one_dimension_in_si(tmp_path):
+    """An answer in kN beside one in N: the floor's scale is the largest force in SI, expressed in each
+    answer's own unit (not the largest raw number, which would make the kN floor 1000 times too wide)."""
+    from gradekit.bank.schema import load_problem
+    from gradekit.pipeline import published_values, solve_problem
+
+    text = (ROOT / "problem_bank" / "ch5_ex5_1_slider_crank_static.yaml").read_text(encoding="utf-8")
+    text = text.replace('{key: F23, of: "F[2,3].mag", unit: N,', '{key: F23, of: "F[2,3].mag", unit: kN,')
+    assert "unit: kN" in text
+    f = tmp_path / "mixed.yaml"
+    f.write_text(text.replace("id: ch5-ex5-1", "id: mixed-units"), encoding="utf-8")
+    p = load_problem(f)
+    r = solve_problem(p, published_values(p))
+    f03, f23 = r.answers["F03"], r.answers["F23"]
+    assert (f03.unit, f23.unit) == ("N", "kN")
+    largest_newtons = max(abs(f03.value), abs(f23.value) * 1000.0)
+    assert f03.scale == pytest.approx(largest_newtons, rel=1e-12)
+    assert f23.scale == pytest.approx(largest_newtons / 1000.0, rel=1e-12)
+    assert not f23.tolerance.accepts(0.0, f23.value)
