@@ -269,6 +269,15 @@ def test_keys_name_joints_as_printed_and_print_no_float_noise(whole_bank):
             solved = sections[item.label].split("Solved forces", 1)[-1]
             for n in hidden:
                 assert not re.search(rf"(?m)^{re.escape(n)} ", solved), f"{sid} {item.label}: joint named {n}"
+            # each row of every "Solved forces" table starts with a point name printed on the sheet
+            names = set(printed) | {n for n in v_points(asg, item, sid) if n not in p.point_names}
+            for table in re.findall(r"Solved forces\nJoint Force[^\n]*\n(.*?)\nDriver:", sections[item.label], re.S):
+                for row in table.splitlines():
+                    if re.fullmatch(r"Page \d+", row.strip()) or "KEY" in row or row.startswith("Joint "):
+                        continue  # the table goes on over a page break
+                    first = row.split()[0]
+                    joint = row.split()[2] if first == "slide" else first
+                    assert joint in names, f"{sid} {item.label}: joint {joint!r} is no printed point ({sorted(names)})"
             if "Superposition" in sections[item.label]:
                 assert "magnitudes, which do not add" in _flat(sections[item.label])
 
@@ -324,6 +333,11 @@ def test_no_heading_alone_at_a_page_foot_and_no_page_of_stragglers(whole_bank):
                 if n == len(reader.pages) and n > 1:
                     assert len(body) > 3 or any("Figure" in x for x in body), (
                         f"{path.name}: the last page holds only {body}")
+
+
+def v_points(asg, item, sid) -> list[str]:
+    """The internal point names of the student's linkage."""
+    return list(student_variant(asg, item, sid).result.cases[0].solution.linkage.points)
 
 
 def test_key_statements_name_the_sheets_figures(whole_bank):
