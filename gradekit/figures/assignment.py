@@ -91,11 +91,15 @@ def pick_case(result: Result, case: str | None) -> CaseResult:
     raise KeyError(f"expected a case among {[c.name for c in result.cases]}, got {case!r}")
 
 
+GREEK = {"tau": "τ", "alpha": "α", "omega": "ω", "theta": "θ", "phi": "φ"}
+
+
 def driver_key(result: Result) -> str:
-    """The name the problem gives the driving torque or force (its answer key), else T."""
+    """The name the problem gives the driving torque or force (its answer key, ``tau`` printed as
+    the statement's τ), else T."""
     for a in result.problem.answers:
         if a.of == "driver":
-            return a.key
+            return GREEK.get(a.key, a.key)
     return "T"
 
 
