@@ -126,8 +126,22 @@ def write_moodle(path: Path, grades: Sequence[StudentGrade], assignment_title: s
     write_csv(path, header, rows)
 
 
+_LINES: dict[tuple[int, bool, str], tuple[AnswerResult, dict[str, str]]] = {}
+
+
 def _answer_lines(r: AnswerResult, reveal: bool, hint: str = "direction") -> dict[str, str]:
-    """The cells of one feedback row, as plain text."""
+    """The cells of one feedback row, as plain text (the Markdown and the HTML page share them)."""
+    hit = _LINES.get((id(r), reveal, hint))
+    if hit is not None and hit[0] is r:
+        return hit[1]
+    if len(_LINES) > 4096:
+        _LINES.clear()
+    cells = _answer_cells(r, reveal, hint)
+    _LINES[(id(r), reveal, hint)] = (r, cells)
+    return cells
+
+
+def _answer_cells(r: AnswerResult, reveal: bool, hint: str) -> dict[str, str]:
     unit = pretty(r.entry.unit)
     read = ""
     if r.answer is not None:
@@ -202,9 +216,15 @@ _COLUMNS = [
 ]
 
 
+_MD_SPECIAL = re.compile(r"[`*_<>\[\]\\|\n\r]")
+_MD_ESCAPE = re.compile(r"([`*_<>\[\]])")
+
+
 def _md_cell(text: str) -> str:
+    if not _MD_SPECIAL.search(text):  # most cells: nothing to escape
+        return text
     text = text.replace("\\", "\\\\").replace("|", "\\|").replace("\n", " ").replace("\r", " ")
-    return re.sub(r"([`*_<>\[\]])", r"\\\1", text)
+    return _MD_ESCAPE.sub(r"\\\1", text)
 
 
 def feedback_markdown(
