@@ -193,3 +193,12 @@ def test_a_clockwise_input_speed_is_shown_with_its_value():
     r = result("ch5-quiz-q2", "s7")
     text = svg_text(figures.to_svg(figures.scene(r)))
     assert f"ω2 = {fmt(r.values['w2'])} rad/s" in text
+
+
+@pytest.mark.parametrize(("pid", "shown", "not_shown"), [
+    ("s004-case-study", "G", "G2"),  # "its centre of mass G at BG"
+    ("s002-inertia-link2", "g2", "G2"),  # "Its centre of gravity g2 lies on O2A at O2g2"
+])
+def test_centres_of_mass_are_named_as_in_the_statement(pid, shown, not_shown):
+    words = svg_text(figures.to_svg(figures.scene(result(pid, "s8")))).split()
+    assert shown in words and not_shown not in words

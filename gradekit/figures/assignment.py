@@ -79,7 +79,20 @@ def load_point_name(problem, spec) -> str:
     sym = problem.parameters[spec.along].symbol or ""
     start = problem.point(spec.at)
     rest = sym[len(start):] if sym.startswith(start) else ""
-    return rest if len(rest) <= 2 and rest[:1].isalpha() and rest[:1].isupper() else ""
+    return rest if 1 <= len(rest) <= 2 and rest[:1].isalpha() else ""
+
+
+def com_name(problem, body: str) -> str:
+    """A body's centre of mass as the statement names it: G from ``BG``, g2 from ``O2g2``, else G<link>;
+    a mass placed at a point without offset (a slider's at C) is that point."""
+    spec = next((m for m in problem.mass if m.body == body), None)
+    if spec is not None:
+        name = load_point_name(problem, spec)
+        if name:
+            return name
+        if body in ("slider", "ram", "piston", "block") and spec.at and not spec.along and not spec.across:
+            return problem.point(spec.at)
+    return f"G{problem.label(body)}"
 
 
 def pick_case(result: Result, case: str | None) -> CaseResult:
@@ -266,7 +279,9 @@ def _build(result: Result, case: str | None, k_paper: float | None) -> Canvas:
     if "com" in show:
         for body, st in sol.states.items():
             if st.mass or st.inertia:
-                cv.label(f"G{pr.label(body)}", T(st.g), BLACK, clear=5.0, prefer=T(st.g) - mid)
+                name = com_name(pr, body)
+                if name not in {pr.point(n) for n in P}:  # a slider's mass at C is labelled C already
+                    cv.label(name, T(st.g), BLACK, clear=5.0, prefer=T(st.g) - mid)
     # dimension labels of given lengths
     if "dimensions" in show:
         dims = KINDS[pr.kind].dimensions

@@ -8,7 +8,17 @@ import math
 import numpy as np
 
 from gradekit import units
-from gradekit.figures.assignment import FIT, PT_PER_M, arrow_len, driver_key, force_text, nice, torque_arc, torque_text
+from gradekit.figures.assignment import (
+    FIT,
+    PT_PER_M,
+    arrow_len,
+    com_name,
+    driver_key,
+    force_text,
+    nice,
+    torque_arc,
+    torque_text,
+)
 from gradekit.figures.canvas import (
     BLACK,
     BLUE,
@@ -113,8 +123,8 @@ def fbd(result: Result, cr: CaseResult, body: str, member: Member) -> Canvas:
         k = T(member.concurrency)
         if float(np.hypot(*(k - mid))) < 2.5 * FIT[0] * 0.55:
             cv.label("K", k, BLACK, clear=4.0)
-    if st is not None and (st.mass or st.inertia):
-        cv.label(f"G{pr.label(body)}", T(st.g), BLACK, clear=5.0)
+    if st is not None and (st.mass or st.inertia) and com_name(pr, body) not in {pr.point(n) for n in keep}:
+        cv.label(com_name(pr, body), T(st.g), BLACK, clear=5.0)
     for name, c in member.couples:
         o = T(link.bodies[body].origin.pos())
         colour = ORANGE if name == "driver" else VERMILION
@@ -207,7 +217,7 @@ def motion_polygon(result: Result, cr: CaseResult, which: str) -> Canvas:
         if st.mass or st.inertia:
             g = np.asarray(st.v_g if which == "vel" else st.a_g, float)
             if not any(np.allclose(g, v) for v in vec.values()):
-                vec[f"G{pr.label(body)}"] = g
+                vec[com_name(pr, body)] = g
     biggest = max(float(np.hypot(*v)) for v in vec.values())
     cv = Canvas()
     if biggest <= 0:
