@@ -2,9 +2,8 @@
 
 from __future__ import annotations
 
-import math
-
 from gradekit import units
+from gradekit.numbers import fmt  # noqa: F401 (the one formatter, used here and re-exported)
 from gradekit.pipeline import Result
 
 # SI unit of a flat result -> the problem's display dimension
@@ -29,24 +28,6 @@ def display_unit(problem, si_unit: str) -> str:
     if dim == "speed":
         return f"{problem.units['length']}/s"
     return problem.units[dim]
-
-
-def fmt(value: float, sig: int = 5) -> str:
-    """The one number formatter shared by reports, documents and feedback.
-
-    Rounds to *sig* significant figures and prints without exponent or trailing zeros
-    (``235150``, ``1.1184``, ``-0.0043``); ``-0`` prints as ``0``.
-    """
-    if not math.isfinite(value):
-        return str(value)
-    if value == 0:
-        return "0"
-    digits = sig - 1 - int(math.floor(math.log10(abs(value))))
-    rounded = round(value, digits)
-    text = f"{rounded:.{max(digits, 0)}f}"
-    if "." in text:
-        text = text.rstrip("0").rstrip(".")
-    return "0" if float(text) == 0 else text
 
 
 def intermediate(result: Result) -> dict:

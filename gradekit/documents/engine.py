@@ -19,9 +19,8 @@ from gradekit.csvsafe import StagedFolder, atomic_write, write_csv
 from gradekit.documents import typeset
 from gradekit.documents.context import Picture, Solved, build_context
 from gradekit.errors import GradekitError
-from gradekit.grading.exports import safe_names
 from gradekit.report import fmt
-from gradekit.roster import Student, read_roster
+from gradekit.roster import Student, read_roster, safe_names
 from gradekit.sampling import given
 
 log = logging.getLogger("gradekit")

@@ -2,55 +2,25 @@
 
 from __future__ import annotations
 
-import hashlib
 import html
 import math
 import re
 import statistics
 from collections import Counter
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 from gradekit.csvsafe import atomic_write, write_csv
 from gradekit.grading.compare import AnswerResult, StudentGrade
 from gradekit.grading.integrity import IntegrityFlag
+from gradekit.numbers import fmt as report_fmt
+from gradekit.roster import safe_name, safe_names  # noqa: F401 (re-exported: output file names)
 from gradekit.units import pretty
-
-_RESERVED = re.compile(r"(con|prn|aux|nul|com[0-9¹²³]|lpt[0-9¹²³])(\..*)?", re.IGNORECASE)
-_UNSAFE = re.compile(r"[^A-Za-z0-9_-]+")  # no dots: nothing like '..', '.x' or 'x.'
-
-
-def safe_name(student_id: str, digits: int = 8) -> str:
-    """A file name stem for *student_id* that stays in its folder on every OS.
-
-    Ids made only of ``a-z 0-9 _ -`` that are not Windows device names are kept as they are;
-    any other id is reduced to those characters and suffixed with the first *digits* hex digits
-    of its SHA-256, so ``../x`` becomes ``x-<hash>`` and ``a/b`` and ``a_b`` stay apart. Upper
-    case also takes the suffix, so ids differing only in case never meet on a case-insensitive
-    file system.
-    """
-    clean = _UNSAFE.sub("_", student_id).strip("_-")[:48] or "student"
-    if clean == student_id and not _RESERVED.fullmatch(clean) and clean == clean.lower():
-        return clean
-    digest = hashlib.sha256(student_id.encode("utf-8", "surrogatepass")).hexdigest()
-    return f"{clean}-{digest[:digits]}"
-
-
-def safe_names(student_ids: Iterable[str]) -> dict[str, str]:
-    """`safe_name` for each id, lengthening the hash until no two names meet (case-folded)."""
-    ids = list(dict.fromkeys(student_ids))
-    for digits in (8, 16, 64):
-        names = {sid: safe_name(sid, digits) for sid in ids}
-        if len({n.casefold() for n in names.values()}) == len(ids):
-            return names
-    raise AssertionError("SHA-256 collision")  # pragma: no cover
 
 
 def fmt(value: float | None, digits: int = 4) -> str:
-    """A number for people: 4 significant figures, no trailing noise."""
-    if value is None:
-        return ""
-    return f"{value:.{digits}g}"
+    """A number for people: `gradekit.numbers.fmt` (the one formatter) at 4 significant figures; None is blank."""
+    return "" if value is None else report_fmt(value, digits)
 
 
 def points(value: float) -> float | int:
