@@ -12,9 +12,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from gradekit.bank.schema import Problem
+from gradekit import quantities, units
+from gradekit.bank import expr
+from gradekit.bank.schema import DEFINED, Problem
 from gradekit.errors import ConditioningError, GeometryError
-from gradekit.mechanics.forces import Solution, Solutions
+from gradekit.mechanics.forces import Solution, Solutions, frame_reaction, spot_point
 from gradekit.mechanics.model import Batched, Refusals
 from gradekit.quantities import BY_NAME as Q
 
@@ -156,12 +158,23 @@ class RowResults(Mapping):
         return self[name]
 
 
-def flat_results(problem: Problem, sol: Solutions) -> Results:
-    """Name every reported quantity of every variant (see ``of:`` in problem_bank/README.md); SI."""
+def wrap(degrees, angle_range: tuple[float, float] = (0.0, 360.0)) -> np.ndarray:
+    """Angles in degrees reported in the problem's range: [0, 360) or [-180, 180)."""
+    lo = angle_range[0]
+    return (np.asarray(degrees, float) - lo) % 360.0 + lo
+
+
+def flat_results(problem: Problem, sol: Solutions, values: dict | None = None) -> Results:
+    """Name every reported quantity of every variant (see ``of:`` in problem_bank/README.md); SI.
+
+    *values* (the case's parameter values, in their units) are needed only by derived answers
+    that use parameters.
+    """
     link = sol.linkage
     lab = problem.label
     n = sol.n
     out = Results()
+    rng = problem.angle_range
 
     def arr(x) -> np.ndarray:
         return np.broadcast_to(np.asarray(x, float), (n,))
@@ -173,7 +186,7 @@ def flat_results(problem: Problem, sol: Solutions) -> Results:
         out.put(name + ".x", lambda: (xy()[0], unit))
         out.put(name + ".y", lambda: (xy()[1], unit))
         out.put(name + ".mag", lambda: (np.hypot(*xy()), unit))
-        out.put(name + ".angle", lambda: (np.degrees(np.arctan2(xy()[1], xy()[0])) % 360.0, "deg"))
+        out.put(name + ".angle", lambda: (wrap(np.degrees(np.arctan2(xy()[1], xy()[0])), rng), "deg"))
         out.put(name, lambda: out[name + ".mag"])
 
     drv_unit = Q["driver"].si if link.driver.kind == "torque" else Q["F"].si
@@ -207,7 +220,7 @@ def flat_results(problem: Problem, sol: Solutions) -> Results:
         L = lab(name)
         g = np.broadcast_to(st.a_g, (n, 2))
         v = np.broadcast_to(st.v_g, (n, 2))
-        out.put(f"theta[{L}]", lambda st=st: (np.degrees(arr(st.angle)) % 360.0, Q["theta"].si))
+        out.put(f"theta[{L}]", lambda st=st: (wrap(np.degrees(arr(st.angle)), rng), Q["theta"].si))
         out.put(f"omega[{L}]", (arr(st.omega), Q["omega"].si))
         out.put(f"alpha[{L}]", (arr(st.alpha), Q["alpha"].si))
         vector(f"aG[{L}]", g[:, 0], g[:, 1], Q["aG"].si)
@@ -219,11 +232,88 @@ def flat_results(problem: Problem, sol: Solutions) -> Results:
         vector(f"Fi[{L}]", fi(0), fi(1), Q["Fi"].si)
         out.put(f"Ci[{L}]", lambda st=st: (arr(st.inertia_couple), Q["Ci"].si))
         out.put(f"h[{L}]", lambda st=st: (np.nan_to_num(arr(st.offset), posinf=0.0, neginf=0.0), Q["h"].si))
-    for pname, pt in link.points.items():
+    origin = _origin(problem, sol)
+    points = dict(link.points)
+    for pname, spot in sol.analysis.points.items():
+        points[pname] = _lazy_point(link, spot)
+    for pname, pt in points.items():
         P = problem.point(pname)
-        vector(f"v[{P}]", pt.x.d, pt.y.d, Q["v"].si)
-        vector(f"a[{P}]", pt.x.dd, pt.y.dd, Q["a"].si)
+
+        def comp(pt, attr, axis, sub=None):
+            def get():
+                p = pt() if callable(pt) else pt
+                v = getattr(p.x if axis == 0 else p.y, attr)
+                return v - (sub()[axis] if sub else 0.0)
+
+            return get
+
+        vector(f"v[{P}]", comp(pt, "d", 0), comp(pt, "d", 1), Q["v"].si)
+        vector(f"a[{P}]", comp(pt, "dd", 0), comp(pt, "dd", 1), Q["a"].si)
+        vector(f"r[{P}]", comp(pt, "v", 0, origin), comp(pt, "v", 1, origin), Q["r"].si)
+    for gname, x in groups.items():
+        suffix = "" if gname is None else "@" + _group_label(problem, gname)
+
+        def shaking(x=x):
+            return frame_reaction(link, x, np.stack([arr(origin()[0]), arr(origin()[1])], axis=-1))
+
+        vector(f"shaking{suffix}", lambda s=shaking: s()[0][:, 0], lambda s=shaking: s()[0][:, 1], Q["shaking"].si)
+        out.put(f"shaking_moment{suffix}", lambda s=shaking: (s()[1], Q["shaking_moment"].si))
+    for spec in problem.answers:
+        d = quantities.derived(spec.of)
+        if d is not None and spec.of not in out:
+            out.put(spec.of, lambda d=d, spec=spec: _derived(problem, d, spec.unit, out, sol, values, n))
     return out
+
+
+def _lazy_point(link, spot):
+    cache = []
+
+    def get():
+        if not cache:
+            cache.append(spot_point(link, spot))
+        return cache[0]
+
+    return get
+
+
+def _origin(problem: Problem, sol: Solutions):
+    """The origin of positions ``r[P]``: the problem's ``origin:`` point, else the driving link's pivot."""
+    link = sol.linkage
+
+    def get():
+        if problem.origin.startswith(DEFINED):
+            p = spot_point(link, sol.analysis.points[problem.origin])
+        elif problem.origin:
+            p = link.points[problem.origin]
+        else:
+            p = link.bodies[link.input_body].origin
+        return (p.x.v, p.y.v)
+
+    return get
+
+
+def _derived(problem: Problem, d, unit: str, out: Results, sol: Solutions, values: dict | None, n: int):
+    """A derived answer's values, in the SI unit of its answer unit (degrees for angles)."""
+    env: dict[str, np.ndarray] = {}
+    for name in expr.names(d.text):
+        if name in d.refs:
+            proj, asked, label = d.refs[name]
+            if not proj:
+                env[name] = out[quantities.name_of(asked)][0]
+                continue
+            stem = quantities.name_of(asked)
+            fx, fy = out[stem + ".x"][0], out[stem + ".y"][0]
+            body = problem.body_of(label)
+            th = np.asarray(sol.linkage.bodies[body].angle.v, float)
+            env[name] = fx * np.cos(th) + fy * np.sin(th) if proj == "along" else -fx * np.sin(th) + fy * np.cos(th)
+        else:
+            p = problem.parameters[name]
+            v = np.asarray((values or {})[name], float)
+            env[name] = v if p.unit in ("deg", "degree") else units.to_si(v, p.unit)
+    value = np.broadcast_to(np.asarray(expr.evaluate_many(d.text, env), float), (n,))
+    if units.si_unit(unit) == units.si_unit("deg"):
+        return wrap(value, problem.angle_range), "deg"
+    return value, units.si_unit(unit)
 
 
 def _neg(x):

@@ -16,10 +16,13 @@ from gradekit.bank import expr
 from gradekit.bank.schema import Problem, Value
 from gradekit.errors import ProblemError
 from gradekit.mechanics.mechanisms import KINDS, Motion, build_many
-from gradekit.mechanics.model import Analysis, Linkage, Load, MassProps
+from gradekit.mechanics.model import Analysis, Linkage, Load, MassProps, MotionLoad, Spot
 from gradekit.parameters import rows_of
 
 SI = {
+    "stiffness": "N/m",
+    "damping": "N*s/m",
+    "rotary_damping": "N*m*s",
     "length": "m",
     "force": "N",
     "mass": "kg",
@@ -67,11 +70,12 @@ class Context:
                     f"{pr.parameters[v].unit!r} ({exc})",
                     path=pr.path,
                     field=where,
+                    line=pr.line(where),
                 ) from None
         try:
             num = float(v) if not isinstance(v, str) else _evaluate(v, self.values, self.n)
         except expr.ExprError as exc:
-            raise ProblemError(str(exc), path=pr.path, field=where) from None
+            raise ProblemError(str(exc), path=pr.path, field=where, line=pr.line(where)) from None
         return units.convert(num, pr.units[dim], SI[dim])
 
 
@@ -98,7 +102,8 @@ def build_linkage(problem: Problem, values: dict, unit_speed: bool = False, n: i
     theta = ctx.si(problem.inputs["theta"], "angle", "mechanism.input.theta")
     omega = ctx.si(problem.inputs.get("omega"), "angular_velocity", "mechanism.input.omega")
     alpha = ctx.si(problem.inputs.get("alpha"), "angular_acceleration", "mechanism.input.alpha")
-    if problem.analysis == "static" or unit_speed:
+    moving_loads = any(ld.type != "force" for ld in problem.loads)
+    if (problem.analysis == "static" and not moving_loads) or unit_speed:
         omega, alpha = 1.0, 0.0  # virtual motion: velocity ratios for the virtual-work check
     return build_many(
         problem.kind,
@@ -114,8 +119,42 @@ def build_linkage(problem: Problem, values: dict, unit_speed: bool = False, n: i
 def build_analysis(problem: Problem, values: dict, n: int = 1) -> Analysis:
     ctx = Context(problem, values, n)
     loads = []
+    spots = {
+        k: Spot(
+            d.body, d.at, ctx.si(d.along, "length", f"mechanism.points.{d.name}.along"),
+            ctx.si(d.across, "length", f"mechanism.points.{d.name}.perp"),
+        )
+        for k, d in problem.defined_points.items()
+    }
+
+    def spot(body: str, at: str, along=0.0, across=0.0) -> Spot:
+        """A point on *body* from point *at* (an author-defined point resolved to a mechanism point)."""
+        if at in spots:
+            s = spots[at]
+            return Spot(body, s.at, s.along + along, s.across + across)
+        return Spot(body, at, along, across)
+
+    motion = []
     for i, ld in enumerate(problem.loads):
         w = f"loads[{i}]"
+        if ld.type == "force":
+            continue
+        dim = {"damper": "damping", "spring": "stiffness", "rotary_damper": "rotary_damping",
+               "resistance": "force"}[ld.type]
+        key = {"damper": "c", "spring": "k", "rotary_damper": "c", "resistance": "magnitude"}[ld.type]
+        coeff = ctx.si(ld.coefficient if ld.type != "resistance" else ld.magnitude, dim, f"{w}.{key}")
+        if ld.type == "rotary_damper":
+            motion.append(MotionLoad(ld.name, ld.type, coeff, body=ld.body, other=ld.relative_to))
+        elif ld.type == "resistance":
+            motion.append(MotionLoad(ld.name, ld.type, coeff, (spot(ld.body, ld.at),)))
+        else:
+            ends = tuple(spot(b, p) for b, p in zip(ld.bodies, ld.between, strict=True))
+            free = ctx.si(ld.free_length, "length", f"{w}.free_length")
+            motion.append(MotionLoad(ld.name, ld.type, coeff, ends, free))
+    for i, ld in enumerate(problem.loads):
+        w = f"loads[{i}]"
+        if ld.type != "force":
+            continue
         rel = ld.relative_angle
         if ld.magnitude is not None:
             mag = ctx.si(ld.magnitude, "force", f"{w}.magnitude")
@@ -124,15 +163,17 @@ def build_analysis(problem: Problem, values: dict, n: int = 1) -> Analysis:
         else:
             force = (ctx.si(ld.fx, "force", f"{w}.fx"), ctx.si(ld.fy, "force", f"{w}.fy"))
             rel = False
+        where = spot(ld.body, ld.at, ctx.si(ld.along, "length", f"{w}.along"),
+                     ctx.si(ld.across, "length", f"{w}.across"))
         loads.append(
             Load(
                 ld.name,
                 ld.body,
                 force,
                 ctx.si(ld.torque, "torque", f"{w}.torque"),
-                ld.at,
-                ctx.si(ld.along, "length", f"{w}.along"),
-                ctx.si(ld.across, "length", f"{w}.across"),
+                where.at,
+                where.along,
+                where.across,
                 rel,
             )
         )
@@ -156,11 +197,9 @@ def build_analysis(problem: Problem, values: dict, n: int = 1) -> Analysis:
             if m.mass is not None
             else ctx.si(m.weight, "force", f"{w}.weight") / g_w
         )
-        mass[m.body] = MassProps(
-            kg,
-            ctx.si(m.inertia, "inertia", f"{w}.inertia"),
-            m.at,
-            ctx.si(m.along, "length", f"{w}.along"),
-            ctx.si(m.across, "length", f"{w}.across"),
-        )
-    return Analysis(problem.analysis == "dynamic", gravity, mass, tuple(loads), max_condition=1e7)
+        g_at = spot(m.body, m.at, ctx.si(m.along, "length", f"{w}.along"), ctx.si(m.across, "length", f"{w}.across"))
+        mass[m.body] = MassProps(kg, ctx.si(m.inertia, "inertia", f"{w}.inertia"), g_at.at, g_at.along, g_at.across)
+    return Analysis(
+        problem.analysis == "dynamic", gravity, mass, tuple(loads), max_condition=1e7, motion_loads=tuple(motion),
+        points=spots,
+    )

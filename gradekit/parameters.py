@@ -20,9 +20,25 @@ def rows_of(values: dict, n: int) -> list[dict[str, float]]:
     return [{k: float(v[i]) if np.ndim(v) else float(v) for k, v in values.items()} for i in range(n)]
 
 
+def _overrides(values: dict) -> dict:
+    """Values with case overrides given as expressions (``m4``, ``"2*phi"``) evaluated on the others."""
+    if not any(isinstance(v, str) for v in values.values()):
+        return values
+    base = {k: v for k, v in values.items() if not isinstance(v, str)}
+    out = dict(base)
+    for k, v in values.items():
+        if isinstance(v, str):
+            scalar = all(np.ndim(x) == 0 for x in base.values())
+            res = expr.evaluate(v, base) if scalar else expr.evaluate_many(v, base)
+            out[k] = float(res) if scalar else np.asarray(res, float)
+    return out
+
+
 def fill(problem: Problem, values: dict[str, float]) -> dict[str, float]:
-    """Complete *values* with the derived parameters (``expr``), rounded as they are printed."""
-    out = dict(values)
+    """Complete *values* with the derived parameters (``expr``): rounded as printed where the
+    parameter states how it is printed (``decimals``, ``sigfigs``, ``step``: the student is given
+    that number), else kept at full precision."""
+    out = dict(_overrides(values))
     for name in order(problem.parameters):
         p = problem.parameters[name]
         if p.expr and name not in values:
@@ -36,7 +52,7 @@ def fill(problem: Problem, values: dict[str, float]) -> dict[str, float]:
 
 def fill_many(problem: Problem, values: dict, n: int, bad: Refusals) -> dict[str, np.ndarray]:
     """`fill` for a batch: arrays of *n* values; a variant whose derived value is undefined is refused."""
-    out = {k: np.broadcast_to(np.asarray(v, float), (n,)) for k, v in values.items()}
+    out = {k: np.broadcast_to(np.asarray(v, float), (n,)) for k, v in _overrides(values).items()}
     for name in order(problem.parameters):
         p = problem.parameters[name]
         if not p.expr or name in values:
@@ -54,14 +70,15 @@ def fill_many(problem: Problem, values: dict, n: int, bad: Refusals) -> dict[str
 
 
 def round_display(p: Parameter, v: float) -> float:
-    """Round *v* the way parameter *p* is printed (its decimals or significant figures)."""
+    """Round *v* the way parameter *p* is printed (its decimals, significant figures or step);
+    unchanged when *p* states none."""
     if p.decimals is not None:
         return round(v, p.decimals)
     if p.sigfigs:
         return sig_round(v, p.sigfigs)
     if p.step:
         return round(round(v / p.step) * p.step, 10)
-    return sig_round(v, 6)
+    return v  # no printed precision stated: full precision (the statement prints 6 significant figures)
 
 
 def sig_round(v: float, sig: int) -> float:

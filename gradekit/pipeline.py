@@ -40,7 +40,7 @@ def _solve_case(problem: Problem, values: dict, n: int, name: str | None, bad: R
     speed = np.broadcast_to(np.asarray(link.bodies[link.input_body].angle.d, float), (n,))
     virtual = None if speed.all() else build_linkage(problem, values, True, n)
     sols = forces.solve_many(link, build_analysis(problem, values, n), virtual)
-    return CaseBatch(name, values, sols, flat_results(problem, sols))
+    return CaseBatch(name, values, sols, flat_results(problem, sols, values))
 
 
 def solve_many(problem: Problem, values: dict, n: int | None = None) -> ResultBatch:

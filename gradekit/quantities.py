@@ -44,13 +44,24 @@ QUANTITIES: tuple[Quantity, ...] = (
     Quantity("Ci", "k", "N*m", False, "torque", "the inertia couple −I·α of link k"),
     Quantity("h", "k", "m", False, "length", "the offset I·α/(m·a_G) of link k's equivalent inertia force"),
     Quantity("param", "name", "", False, "length", "a parameter's own value (in its unit)"),
+    Quantity("r", "P", "m", True, "length", "the position of point P from the problem's origin"),
+    Quantity(
+        "shaking", "", "N", True, "force",
+        "the shaking force: the sum of the forces the mechanism exerts on the frame (ground pins, slides, the "
+        "driver's reaction)",
+    ),
+    Quantity(
+        "shaking_moment", "", "N*m", False, "torque",
+        "the shaking moment about the origin of those forces, with the guides' couples and the driving "
+        "torque's reaction (CCW +)",
+    ),
 )
 BY_NAME = {q.name: q for q in QUANTITIES}
 COMPONENTS = ("x", "y", "mag", "angle")
 
 _BRACKETS = {"i,j": r"[^,\]]+,[^\]]+", "k": r"[^\]]+", "P": r"[^\]]+", "name": r"[A-Za-z_][A-Za-z0-9_]*"}
 _GRAMMAR = re.compile(
-    r"^(?P<name>[A-Za-z]+)(\[(?P<args>[^\]]*)\])?(@(?P<group>[^.]+))?(\.(?P<component>[a-z]+))?$"
+    r"^(?P<name>[A-Za-z_]+)(\[(?P<args>[^\]]*)\])?(@(?P<group>[^.]+))?(\.(?P<component>[a-z]+))?$"
 )
 
 
@@ -99,6 +110,12 @@ def parse(of: str) -> Asked | None:
     return Asked(q, args or "", m["group"] or "", component)
 
 
+def name_of(asked: Asked) -> str:
+    """The result name `gradekit.answers.flat_results` registers for *asked* (component included)."""
+    stem = asked.quantity.name + (f"[{asked.args}]" if asked.quantity.brackets else "")
+    return stem + (f"@{asked.group}" if asked.group else "") + (f".{asked.component}" if asked.component else "")
+
+
 def grammar() -> str:
     """One line per quantity, for error messages and documentation."""
     rows = []
@@ -106,3 +123,61 @@ def grammar() -> str:
         stem = q.name + (f"[{q.brackets}]" if q.brackets else "")
         rows.append(stem + ("[.x|.y|.mag|.angle]" if q.vector else "") + f": {q.means}")
     return "; ".join(rows)
+
+
+# A derived answer: an expression over results and parameters (``-driver``,
+# ``along(F[2,3], 3)``, ``hypot(F[1,2].x, F[1,2].y)``). Results are referred to as in ``of:``;
+# ``along(V, k)`` / ``perp(V, k)`` are the components of vector result V along link k's axis and
+# along its left normal.
+_REF = r"[A-Za-z_][A-Za-z0-9_]*(?:\[[^\]]*\])?(?:@[A-Za-z0-9_]+(?:\[[^\]]*\])?)?(?:\.(?:x|y|mag|angle))?"
+_PROJ = re.compile(r"\b(along|perp)\(\s*(" + _REF + r")\s*,\s*([^(),]+?)\s*\)")
+_NAME = re.compile(r"(?<![A-Za-z0-9_.\]])" + _REF)
+PROJECTIONS = ("along", "perp")
+
+
+@dataclass(frozen=True)
+class Derived:
+    """A derived answer: *text* is an expression (for `gradekit.bank.expr`) over parameter names and
+    the placeholders of *refs* (``_q0`` …), each ``(projection or "", Asked, link label)``."""
+
+    text: str
+    refs: dict[str, tuple[str, Asked, str]]
+
+
+def derived(of: str) -> Derived | None:
+    """The derived answer an ``of:`` text asks for, or None when it refers to no result (or to an
+    unknown one: validation names it). A plain result (`parse`) is not a derived answer."""
+    if not isinstance(of, str) or parse(of) is not None:
+        return None
+    refs: dict[str, tuple[str, Asked, str]] = {}
+    bad: list[str] = []
+
+    def proj(m: re.Match) -> str:
+        asked = parse(m[2])
+        if asked is None or not asked.quantity.vector or asked.component:
+            bad.append(m[2])
+            return m[0]
+        key = f"_q{len(refs)}"
+        refs[key] = (m[1], asked, m[3].strip().strip("'\""))
+        return key
+
+    def ref(m: re.Match) -> str:
+        text = m[0]
+        asked = parse(text)
+        if asked is None:
+            if "[" in text or "@" in text:
+                bad.append(text)
+            return text
+        key = f"_q{len(refs)}"
+        refs[key] = ("", asked, "")
+        return key
+
+    text = _PROJ.sub(proj, of)
+    text = _NAME.sub(lambda m: m[0] if _is_call(text, m) else ref(m), text)
+    if bad:
+        raise ValueError(f"expected results of the of: grammar inside the expression, got {', '.join(bad)}")
+    return Derived(text, refs) if refs else None
+
+
+def _is_call(text: str, m: re.Match) -> bool:
+    return text[m.end(): m.end() + 1] == "("

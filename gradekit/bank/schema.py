@@ -7,6 +7,7 @@ together. See ``problem_bank/README.md`` for the format documented field by fiel
 
 from __future__ import annotations
 
+import difflib
 import math
 import re
 from dataclasses import dataclass, field, replace
@@ -33,6 +34,41 @@ DIMENSIONS = {
     "angular_velocity": "rad/s",
     "angular_acceleration": "rad/s**2",
     "acceleration": "m/s**2",
+    "stiffness": "N/mm",
+    "damping": "N*s/mm",
+    "rotary_damping": "N*mm*s",
+}
+# ``units: <preset>`` (or ``units: {system: <preset>, …overrides}``): one consistent system each.
+# The implicit default (`DIMENSIONS`) keeps acceleration in m/s² for the bank's existing files.
+UNIT_SYSTEMS = {
+    "SI": {
+        "length": "m", "force": "N", "mass": "kg", "inertia": "kg*m**2", "torque": "N*m", "angle": "deg",
+        "angular_velocity": "rad/s", "angular_acceleration": "rad/s**2", "acceleration": "m/s**2",
+        "stiffness": "N/m", "damping": "N*s/m", "rotary_damping": "N*m*s",
+    },
+    "mm-N-s": {
+        "length": "mm", "force": "N", "mass": "kg", "inertia": "kg*mm**2", "torque": "N*mm", "angle": "deg",
+        "angular_velocity": "rad/s", "angular_acceleration": "rad/s**2", "acceleration": "mm/s**2",
+        "stiffness": "N/mm", "damping": "N*s/mm", "rotary_damping": "N*mm*s",
+    },
+    "in-lbf-s": {
+        "length": "in", "force": "lbf", "mass": "lbf*s**2/in", "inertia": "lbf*in*s**2", "torque": "lbf*in",
+        "angle": "deg", "angular_velocity": "rad/s", "angular_acceleration": "rad/s**2",
+        "acceleration": "in/s**2", "stiffness": "lbf/in", "damping": "lbf*s/in", "rotary_damping": "lbf*in*s",
+    },
+    "ft-lbf-s": {
+        "length": "ft", "force": "lbf", "mass": "slug", "inertia": "slug*ft**2", "torque": "lbf*ft",
+        "angle": "deg", "angular_velocity": "rad/s", "angular_acceleration": "rad/s**2",
+        "acceleration": "ft/s**2", "stiffness": "lbf/ft", "damping": "lbf*s/ft", "rotary_damping": "lbf*ft*s",
+    },
+}
+LOAD_TYPES = ("force", "damper", "spring", "rotary_damper", "resistance")
+LOAD_KEYS = {
+    "force": ("at", "along", "across", "magnitude", "angle", "relative_angle", "fx", "fy", "torque"),
+    "damper": ("between", "bodies", "c"),
+    "spring": ("between", "bodies", "k", "free_length"),
+    "rotary_damper": ("link", "relative_to", "c"),
+    "resistance": ("at", "magnitude"),
 }
 ANGLE_PARAMS = MECHANISM_ANGLES  # the registry's angle parameters (gradekit.mechanics.mechanisms)
 SHOW = {"dimensions", "loads", "com", "accelerations", "velocities", "angles", "torque", "labels"}
@@ -75,6 +111,27 @@ class LoadSpec:
     fx: Value | None = None
     fy: Value | None = None
     torque: Value | None = None
+    type: str = "force"  # force | damper | spring | rotary_damper | resistance
+    between: tuple[str, ...] = ()  # damper, spring: the two points (solver names)
+    bodies: tuple[str, ...] = ()  # the body each end of ``between`` acts on (resistance: ``body``)
+    coefficient: Value | None = None  # damper, rotary_damper: c; spring: k
+    free_length: Value = 0.0
+    relative_to: str = "ground"  # rotary_damper: the body the damping couple reacts on
+
+
+@dataclass(frozen=True)
+class PointSpec:
+    """A point the author defines on a body: from point ``at`` (a solver name), ``along`` the body
+    axis and ``across`` it (to the left)."""
+
+    name: str  # as printed
+    body: str
+    at: str
+    along: Value = 0.0
+    across: Value = 0.0
+
+
+DEFINED = "+"  # solver names of author-defined points: "+" and the printed name
 
 
 @dataclass(frozen=True)
@@ -110,6 +167,11 @@ class Published:
     unit: str
     rel: float
     note: str = ""
+    abs: float = 0.0  # in the published unit: for a published zero, or a value printed to fixed decimals
+
+    def accepts(self, got: float) -> bool:
+        """*got* (in the published unit) reproduces the printed value within its precision."""
+        return abs(got - self.value) <= max(self.rel * abs(self.value), self.abs) * (1 + 1e-12)
 
 
 @dataclass(frozen=True)
@@ -170,7 +232,7 @@ class Problem:
     gravity: dict[str, Value] | None
     weight_g: Value | None
     constraints: Constraints
-    cases: dict[str, dict[str, float]]
+    cases: dict[str, dict[str, Value]]
     statement: str
     answers: tuple[AnswerSpec, ...]
     published: tuple[Published, ...]
@@ -178,12 +240,33 @@ class Problem:
     notes: str
     path: str = ""
     lines: dict[str, int] = field(default_factory=dict, compare=False)
+    origin: str = ""  # the point positions r[P] are measured from (solver name; "" = the driving link's pivot)
+    defined_points: dict[str, PointSpec] = field(default_factory=dict)  # solver name ("+P") -> definition
+    angle_range: tuple[float, float] = (0.0, 360.0)
+    field_lines: dict[str, int] = field(default_factory=dict, compare=False)  # "loads[0].c" -> line
 
     def label(self, body: str) -> str:
         return self.labels.get(body, body)
 
     def point(self, name: str) -> str:
+        if name.startswith(DEFINED):
+            return name[len(DEFINED) :]
         return self.point_names.get(name, name)
+
+    def body_of(self, label: str) -> str | None:
+        """The body a label (or a body name) names, or None."""
+        if label in self.labels.values():
+            return next(b for b, lab in self.labels.items() if lab == label)
+        return label if label == "ground" or label in KINDS[self.kind].bodies else None
+
+    def line(self, fieldname: str) -> int | None:
+        """The line of a field (``loads[0].c``, ``mechanism.geometry.crank``), else of its nearest parent."""
+        f = fieldname
+        while f:
+            if f in self.field_lines:
+                return self.field_lines[f]
+            f = f.rsplit(".", 1)[0] if "." in f else (f.rsplit("[", 1)[0] if "[" in f else "")
+        return None
 
 
 class _Collector:
@@ -471,6 +554,8 @@ TOP_OPTIONAL = (
     "published",
     "figure",
     "notes",
+    "origin",
+    "angle_range",
 )
 
 
@@ -493,11 +578,7 @@ def validate(data: dict, path: str) -> Problem:
         tags = []
     method = c.choice(data, "method", "method", METHODS, "analytical")
     analysis = c.choice(data, "analysis", "analysis", ANALYSES, "static")
-    unit_node = c.mapping(data.get("units", {}), "units", (), tuple(DIMENSIONS), data, "units") or {}
-    dims = dict(DIMENSIONS)
-    for k in unit_node:
-        if k in DIMENSIONS:
-            dims[k] = c.unit(unit_node, k, f"units.{k}")
+    dims = _units(c, data)
 
     params = _parameters(c, data.get("parameters"), data)
     names = set(params)
@@ -515,8 +596,10 @@ def validate(data: dict, path: str) -> Problem:
     )
     kind = mech.get("type")
     spec = KINDS.get(kind) if isinstance(kind, str) else None
-    if spec is None:
-        c.err(mech, "type", "mechanism.type", f"expected one of {', '.join(KINDS)}; got {_show(kind)}")
+    if spec is None and "type" in mech:
+        near = difflib.get_close_matches(str(kind), list(KINDS), n=1, cutoff=0.5)
+        hint = f" (did you mean {near[0]!r}?)" if near else ""
+        c.err(mech, "type", "mechanism.type", f"expected one of {', '.join(KINDS)}; got {_show(kind)}{hint}")
     br = mech.get("branch", "open")
     branch = {"open": 1, "crossed": -1, 1: 1, -1: -1}.get(br) if not isinstance(br, bool) else None
     if branch is None:
@@ -525,16 +608,13 @@ def validate(data: dict, path: str) -> Problem:
     drivers = spec.drivers if spec else ("crank",)
     driver = c.choice(mech, "driver", "mechanism.driver", drivers, "crank")
     bodies = ("ground",) + (spec.bodies if spec else ())
-    labels = _names_map(c, mech, "labels", bodies)
-    point_names = _names_map(c, mech, "points", spec.points if spec else ())
+    labels = _names_map(c, mech, "labels", bodies) if spec else {}
+    point_names, point_nodes = _point_names(c, mech, spec.points if spec else ()) if spec else ({}, {})
     geometry: dict[str, Value] = {}
-    g = c.mapping(
-        mech.get("geometry"),
-        "mechanism.geometry",
-        spec.required if spec else (),
-        tuple(spec.optional) if spec else (),
-        mech,
-        "geometry",
+    g = (
+        c.mapping(mech.get("geometry"), "mechanism.geometry", spec.required, tuple(spec.optional), mech, "geometry")
+        if spec
+        else None  # an unknown type: one error above, not one per geometry key
     )
     for k in g or {}:
         v = _value(c, g, k, f"mechanism.geometry.{k}", names)
@@ -548,8 +628,17 @@ def validate(data: dict, path: str) -> Problem:
     body_names = set(spec.bodies) if spec else set()
     point_set = set(spec.points) if spec else set()
     shown = {name: point_names.get(name, name) for name in point_set}  # internal -> printed name
-    loads = _loads(c, data, names, body_names, shown)
-    mass = _mass(c, data, names, body_names, shown)
+    defined = _defined_points(c, mech, point_nodes, names, shown, labels, body_names)
+    shown.update({k: d.name for k, d in defined.items()})
+    carried = _carriers(kind, defined) if spec else {}
+    loads = _loads(c, data, names, body_names, shown, labels, carried) if spec else ()
+    mass = _mass(c, data, names, body_names, shown) if spec else ()
+    for ms in mass:
+        if ms.at.startswith(DEFINED) and carried.get(ms.at) != (ms.body,):
+            c.err(data.get("mass", {}).get(ms.body), "at", f"mass.{ms.body}.at",
+                  f"expected a point of the {ms.body} (point {ms.at[1:]} is defined on the {carried[ms.at][0]})")
+    origin = _point(c, data, "origin", shown, key="origin") if spec else ""
+    angle_range = _angle_range(c, data)
     gravity = None
     if "gravity" in data:
         gm = c.mapping(data["gravity"], "gravity", ("g",), ("angle",), data, "gravity") or {}
@@ -563,7 +652,9 @@ def validate(data: dict, path: str) -> Problem:
     cases = _cases(c, data, names)
     statement = c.text(data, "statement", "statement", "")
     answers = _answers(c, data, method, cases)
-    published = _published(c, data, {a.key for a in answers}, cases)
+    if spec:
+        _check_asked(c, data, answers, labels, shown, {ld.name for ld in loads}, names, kind)
+    published = _published(c, data, _answer_keys(answers, cases), cases)
     figure = _figure(c, data)
     notes = data.get("notes", "")
     if not isinstance(notes, str):
@@ -601,6 +692,10 @@ def validate(data: dict, path: str) -> Problem:
         notes,
         path,
         lines,
+        origin,
+        defined,
+        angle_range,
+        _field_lines(data),
     )
 
 
@@ -610,7 +705,123 @@ def _names_map(c: _Collector, mech: dict, key: str, allowed: tuple[str, ...]) ->
     return {k: str(v) for k, v in m.items()}
 
 
-def _loads(c: _Collector, data: dict, names: set[str], bodies: set[str], points: set[str]) -> tuple[LoadSpec, ...]:
+def _point_names(c: _Collector, mech: dict, kind_points: tuple[str, ...]) -> tuple[dict[str, str], dict]:
+    """``mechanism.points``: a kind's point renamed for print (``O2: A``), or a new point defined on a
+    body (``P: {on: coupler, from: B, along: 50, perp: 10}``)."""
+    node = mech.get("points", {})
+    if not isinstance(node, dict):
+        c.err(mech, "points", "mechanism.points", f"expected a mapping of point: name or definition, got {_show(node)}")
+        return {}, {}
+    renamed, defined = {}, {}
+    for k, v in node.items():
+        if isinstance(v, dict):
+            defined[str(k)] = v
+        elif k in kind_points:
+            renamed[k] = str(v)
+        else:
+            c.err(node, k, f"mechanism.points.{k}",
+                  f"expected one of the kind's points ({', '.join(kind_points)}) renamed, or a new point defined "
+                  f"as {{on: <body>, from: <point>, along: <length>, perp: <length>}}; got {k!r}: {_show(v)}")
+    return renamed, defined
+
+
+def _defined_points(c, mech, nodes: dict, names: set[str], shown: dict[str, str], labels: dict[str, str],
+                    bodies: set[str]) -> dict[str, PointSpec]:
+    out: dict[str, PointSpec] = {}
+    pnode = mech.get("points", {})
+    for printed, spec in nodes.items():
+        w = f"mechanism.points.{printed}"
+        if printed in shown.values():
+            c.err(pnode, printed, w, f"expected a new point name, got {printed!r}, which the mechanism prints already")
+            continue
+        m = c.mapping(spec, w, ("on", "from"), ("along", "perp"), pnode, printed)
+        if m is None:
+            continue
+        body = _body_named(c, m, "on", f"{w}.on", bodies, labels, ground=True)
+        at = _point(c, m, f"{w}.from", shown, key="from")
+        out[DEFINED + printed] = PointSpec(
+            printed, body, at, _value(c, m, "along", f"{w}.along", names, 0.0) or 0.0,
+            _value(c, m, "perp", f"{w}.perp", names, 0.0) or 0.0,
+        )
+    return out
+
+
+def _carriers(kind: str, defined: dict[str, PointSpec]) -> dict[str, tuple[str, ...]]:
+    """Which bodies each point is fixed on: the kind's (from the registry) and the author's own."""
+    from gradekit.mechanics.mechanisms import carriers
+
+    return {**carriers(kind), **{k: (d.body,) for k, d in defined.items()}}
+
+
+def _units(c: _Collector, data: dict) -> dict[str, str]:
+    """``units:``: a preset name (SI, mm-N-s, in-lbf-s, ft-lbf-s), or a mapping per dimension, which may
+    start from a preset with ``system:``."""
+    node = data.get("units", {})
+    systems = ", ".join(UNIT_SYSTEMS)
+    if isinstance(node, str):
+        if node not in UNIT_SYSTEMS:
+            near = difflib.get_close_matches(node, list(UNIT_SYSTEMS), n=1, cutoff=0.4)
+            hint = f" (did you mean {near[0]!r}?)" if near else ""
+            c.err(data, "units", "units", f"expected a unit system among {systems} or a mapping; got {node!r}{hint}")
+            return dict(DIMENSIONS)
+        return dict(UNIT_SYSTEMS[node])
+    m = c.mapping(node, "units", (), ("system", *DIMENSIONS), data, "units") or {}
+    dims = dict(DIMENSIONS)
+    if "system" in m:
+        if m["system"] in UNIT_SYSTEMS:
+            dims = dict(UNIT_SYSTEMS[m["system"]])
+        else:
+            c.err(m, "system", "units.system", f"expected one of {systems}; got {_show(m['system'])}")
+    for k in m:
+        if k in DIMENSIONS:
+            dims[k] = c.unit(m, k, f"units.{k}")
+    return dims
+
+
+def _angle_range(c: _Collector, data: dict) -> tuple[float, float]:
+    r = data.get("angle_range", [0, 360])
+    if r in ([0, 360], [-180, 180]):
+        return (float(r[0]), float(r[1]))
+    c.err(data, "angle_range", "angle_range", f"expected [0, 360] or [-180, 180], got {_show(r)}")
+    return (0.0, 360.0)
+
+
+def _field_lines(data: Any) -> dict[str, int]:
+    """Every field's line, by its dotted name (``loads[0].c``), so errors raised after validation
+    (while solving) still name the line."""
+    out: dict[str, int] = {}
+
+    def walk(node: Any, prefix: str) -> None:
+        if isinstance(node, LineDict):
+            for k, v in node.items():
+                name = f"{prefix}.{k}" if prefix else str(k)
+                out[name] = node.lines.get(k, node.line)
+                walk(v, name)
+        elif isinstance(node, LineList):
+            for i, v in enumerate(node):
+                name = f"{prefix}[{i}]"
+                out[name] = node.lines[i] if i < len(node.lines) else node.line
+                walk(v, name)
+
+    walk(data, "")
+    answers = data.get("answers") if isinstance(data, dict) else None
+    for i, a in enumerate(answers if isinstance(answers, list) else []):
+        if isinstance(a, dict) and isinstance(a.get("key"), str):  # answers.<key>.of as the pipeline names it
+            for k in a:
+                if f"answers[{i}].{k}" in out:
+                    out[f"answers.{a['key']}.{k}"] = out[f"answers[{i}].{k}"]
+    return out
+
+
+def _loads(
+    c: _Collector,
+    data: dict,
+    names: set[str],
+    bodies: set[str],
+    points: dict[str, str],
+    labels: dict[str, str],
+    carried: dict[str, tuple[str, ...]],
+) -> tuple[LoadSpec, ...]:
     node = data.get("loads", [])
     if not isinstance(node, list):
         c.err(data, "loads", "loads", f"expected a list of loads, got {_show(node)}")
@@ -619,24 +830,33 @@ def _loads(c: _Collector, data: dict, names: set[str], bodies: set[str], points:
     seen: set[str] = set()
     for i, item in enumerate(node):
         w = f"loads[{i}]"
-        m = c.mapping(
-            item,
-            w,
-            ("name", "body"),
-            ("at", "along", "across", "magnitude", "angle", "relative_angle", "fx", "fy", "torque"),
-            node,
-            i,
-        )
+        typ = item.get("type", "force") if isinstance(item, dict) else "force"
+        if typ not in LOAD_TYPES:
+            near = difflib.get_close_matches(str(typ), LOAD_TYPES, n=1, cutoff=0.5)
+            hint = f" (did you mean {near[0]!r}?)" if near else ""
+            c.err(item, "type", f"{w}.type", f"expected one of {', '.join(LOAD_TYPES)}; got {_show(typ)}{hint}")
+            continue
+        required = {"force": ("name", "body"), "damper": ("name", "type", "between", "c"),
+                    "spring": ("name", "type", "between", "k"), "rotary_damper": ("name", "type", "link", "c"),
+                    "resistance": ("name", "type", "at", "magnitude")}[typ]
+        optional = tuple(k for k in ("type", "body", *LOAD_KEYS[typ]) if k not in required)
+        m = c.mapping(item, w, required, optional, node, i)
         if m is None:
             continue
         name = c.text(m, "name", f"{w}.name", "")
         if name in seen:
             c.err(m, "name", f"{w}.name", f"expected a unique load name, got {name!r} twice")
         seen.add(name)
+        if typ != "force":
+            spec = _motion_load(c, m, w, typ, name, names, bodies, points, labels, carried)
+            if spec is not None:
+                out.append(spec)
+            continue
         body = m.get("body")
         if body not in bodies:
             c.err(m, "body", f"{w}.body", f"expected one of {', '.join(sorted(bodies))}; got {_show(body)}")
         at = _point(c, m, f"{w}.at", points)
+        _same_body(c, m, f"{w}.at", at, str(body), carried)
         vals = {
             k: _value(c, m, k, f"{w}.{k}", names)
             for k in ("along", "across", "magnitude", "angle", "fx", "fy", "torque")
@@ -671,13 +891,93 @@ def _loads(c: _Collector, data: dict, names: set[str], bodies: set[str], points:
     return tuple(out)
 
 
-def _point(c: _Collector, m: dict, where: str, shown: dict[str, str]) -> str:
+def _same_body(c: _Collector, m: dict, where: str, at: str, body: str, carried: dict) -> None:
+    """An author-defined point is fixed on one body: what acts there must act on that body."""
+    if at.startswith(DEFINED) and carried.get(at) and body not in carried[at]:
+        c.err(m, "at", where, f"expected a point of the {body} (point {at[1:]} is defined on the {carried[at][0]})")
+
+
+def _body_named(c: _Collector, m: dict, key: str, where: str, bodies: set[str], labels: dict[str, str],
+                ground: bool = False) -> str:
+    """A body given by its name (``coupler``) or its label (``3``)."""
+    v = m.get(key)
+    by_label = {str(lab): b for b, lab in labels.items()}
+    if isinstance(v, (int, float)) and not isinstance(v, bool):
+        v = str(int(v)) if float(v).is_integer() else str(v)
+    if v in bodies or (ground and v == "ground"):
+        return str(v)
+    if isinstance(v, str) and v in by_label and (ground or by_label[v] != "ground"):
+        return by_label[v]
+    allowed = sorted(bodies | ({"ground"} if ground else set())) + sorted(by_label)
+    c.err(m, key, where, f"expected a body or its label among {', '.join(allowed)}; got {_show(m.get(key))}")
+    return ""
+
+
+def _end_body(c, m, where: str, point: str, given: str | None, carried: dict, ground_ok: bool) -> str:
+    """The body a point load acts on: given, the point's own body, else the one the point is on."""
+    on = carried.get(point, ())
+    if given:
+        if on and given not in on:
+            c.err(m, "bodies" if "between" in m else "body", where,
+                  f"expected a body point {_printed(point)} is on ({', '.join(on)}); got {given!r}")
+        return given
+    if "ground" in on and ground_ok:
+        return "ground"
+    moving = [b for b in on if b != "ground"]
+    if len(moving) == 1:
+        return moving[0]
+    c.err(m, "bodies" if "between" in m else "at", where,
+          f"expected the body it acts on (point {_printed(point)} joins {', '.join(on) or 'no body'}): "
+          f"give {'bodies: [..]' if 'between' in m else 'body:'}")
+    return ""
+
+
+def _printed(point: str) -> str:
+    return point[len(DEFINED) :] if point.startswith(DEFINED) else point
+
+
+def _motion_load(c, m, w, typ, name, names, bodies, points, labels, carried) -> LoadSpec | None:
+    """A load computed from the motion: damper, spring, rotary damper or velocity-opposing resistance."""
+    coeff_key = {"damper": "c", "spring": "k", "rotary_damper": "c", "resistance": "magnitude"}[typ]
+    coefficient = _value(c, m, coeff_key, f"{w}.{coeff_key}", names)
+    if typ == "rotary_damper":
+        link = _body_named(c, m, "link", f"{w}.link", bodies, labels)
+        rel = _body_named(c, m, "relative_to", f"{w}.relative_to", bodies, labels, ground=True) if (
+            "relative_to" in m) else "ground"
+        if "body" in m:
+            c.err(m, "body", f"{w}.body", "expected link: (the body the couple acts on), got body:")
+        return LoadSpec(name, link, type=typ, coefficient=coefficient, relative_to=rel)
+    if typ == "resistance":
+        at = _point(c, m, f"{w}.at", points)
+        given = _body_named(c, m, "body", f"{w}.body", bodies, labels) if "body" in m else None
+        body = _end_body(c, m, f"{w}.body", at, given, carried, ground_ok=False) if at else ""
+        return LoadSpec(name, body, at, type=typ, magnitude=coefficient)
+    ends = m.get("between")
+    if not isinstance(ends, list) or len(ends) != 2:
+        c.err(m, "between", f"{w}.between", f"expected two points [P, Q], got {_show(ends)}")
+        return None
+    pts = [_point(c, {"at": e}, f"{w}.between", points) for e in ends]
+    given = m.get("bodies")
+    if given is not None and (not isinstance(given, list) or len(given) != 2):
+        c.err(m, "bodies", f"{w}.bodies", f"expected the body of each end [body of P, body of Q], got {_show(given)}")
+        given = None
+    gb = [None, None]
+    if given is not None:
+        gb = [_body_named(c, {"b": g}, "b", f"{w}.bodies", bodies, labels, ground=True) for g in given]
+    ends_b = tuple(_end_body(c, m, f"{w}.bodies", p, g, carried, True) if p else "" for p, g in zip(pts, gb,
+                                                                                                   strict=True))
+    free = _value(c, m, "free_length", f"{w}.free_length", names, 0.0) if typ == "spring" else 0.0
+    return LoadSpec(name, ends_b[1], type=typ, between=tuple(pts), bodies=ends_b, coefficient=coefficient,
+                    free_length=free if free is not None else 0.0)
+
+
+def _point(c: _Collector, m: dict, where: str, shown: dict[str, str], key: str = "at") -> str:
     """A point named as the sheet prints it (``mechanism.points``), as the solver's internal name.
 
     A point renamed for display is only known by its printed name, so ``at: A`` always means the
     point labelled A on the student's figure.
     """
-    at = m.get("at", "")
+    at = m.get(key, "")
     if not at:
         return ""
     internal = {printed: name for name, printed in shown.items()}
@@ -687,12 +987,12 @@ def _point(c: _Collector, m: dict, where: str, shown: dict[str, str]) -> str:
     if at in shown:
         c.err(
             m,
-            "at",
+            key,
             where,
             f"expected a point as printed in this problem ({printed}); got {at!r}, which is printed as {shown[at]!r}",
         )
     else:
-        c.err(m, "at", where, f"expected a point among {printed}; got {_show(at)}")
+        c.err(m, key, where, f"expected a point among {printed}; got {_show(at)}")
     return ""
 
 
@@ -815,7 +1115,7 @@ def _constraints(c: _Collector, data: dict, names: set[str]) -> Constraints:
     )
 
 
-def _cases(c: _Collector, data: dict, names: set[str]) -> dict[str, dict[str, float]]:
+def _cases(c: _Collector, data: dict, names: set[str]) -> dict[str, dict[str, Value]]:
     node = data.get("cases")
     if node is None:
         return {}
@@ -831,7 +1131,7 @@ def _cases(c: _Collector, data: dict, names: set[str]) -> dict[str, dict[str, fl
         for k in over:
             if k not in names:
                 c.err(over, k, f"cases.{name}.{k}", f"expected a parameter name, got {k!r}")
-            v = c.number(over, k, f"cases.{name}.{k}")
+            v = _value(c, over, k, f"cases.{name}.{k}", names)  # a number, or an expression of the parameters
             if v is not None:
                 vals[k] = v
         out[str(name)] = vals
@@ -860,14 +1160,29 @@ def _answers(c: _Collector, data: dict, method: str, cases: dict) -> tuple[Answe
         of = m.get("of")
         if isinstance(of, str) and of.startswith("param[") and of[6:-1] not in data.get("parameters", {}):
             c.err(m, "of", f"{w}.of", f"expected param[<a parameter name>], got {of!r}")
-        if not isinstance(of, str) or quantities.parse(of) is None:
-            c.err(
-                m,
-                "of",
-                f"{w}.of",
-                f"expected a result such as driver, F[3,2].mag, aG[2].angle, h[3], driver@P "
-                f"(the quantities: {quantities.grammar()}); got {_show(of)}",
-            )
+        problem_text = None
+        if isinstance(of, str) and quantities.parse(of) is None:
+            try:
+                d = quantities.derived(of)
+                if d is not None:
+                    unknown = expr.names(d.text) - set(d.refs) - set(data.get("parameters", {}) or {})
+                    if unknown:
+                        problem_text = f"expected results and parameter names, got unknown {', '.join(sorted(unknown))}"
+            except (ValueError, expr.ExprError) as exc:
+                d, problem_text = None, str(exc)
+            if problem_text is None and d is None:
+                problem_text = "expected a result"
+            if problem_text:
+                c.err(
+                    m,
+                    "of",
+                    f"{w}.of",
+                    f"{problem_text}: a result such as driver, F[3,2].mag, aG[2].angle, h[3], driver@P, or an "
+                    f"expression of results and parameters such as -driver or along(F[2,3], 3) "
+                    f"(the quantities: {quantities.grammar()}); got {_show(of)}",
+                )
+        elif not isinstance(of, str):
+            c.err(m, "of", f"{w}.of", f"expected a result such as driver or F[3,2].mag, got {_show(of)}")
         unit = c.unit(m, "unit", f"{w}.unit")
         case = m.get("case")
         if case is not None and str(case) not in cases:
@@ -901,23 +1216,96 @@ def _answers(c: _Collector, data: dict, method: str, cases: dict) -> tuple[Answe
     return tuple(out)
 
 
+def _check_asked(c: _Collector, data: dict, answers: tuple[AnswerSpec, ...], labels: dict[str, str],
+                 shown: dict[str, str], load_names: set[str], names: set[str], kind: str) -> None:
+    """What every answer's ``of:`` refers to exists in this problem: links, joints, points, groups,
+    and its unit has the dimension of the result (so nothing fails later, at solve time)."""
+    from gradekit.mechanics.mechanisms import joint_pairs
+
+    spec = KINDS[kind]
+    body_of = {labels.get(b, b): b for b in ("ground", *spec.bodies)}
+    moving = {lab for lab, b in body_of.items() if b != "ground"}
+    pairs = joint_pairs(kind)
+    groups = {*load_names, "gravity", *(f"inertia[{lab}]" for lab in moving)}
+    printed = set(shown.values())
+    node = data.get("answers") or []
+    for i, (a, m) in enumerate(zip(answers, node, strict=False)):
+        w = f"answers[{i}].of"
+        try:
+            plain = quantities.parse(a.of)
+            d = None if plain else quantities.derived(a.of)
+        except ValueError:
+            continue  # reported by _answers
+        refs = [("", plain, "")] if plain else list(d.refs.values()) if d else []
+        for proj, asked, link in refs:
+            q, args, problems = asked.quantity, asked.args, []
+            if q.brackets == "k" and args not in moving:
+                problems.append(f"a moving link's label ({', '.join(sorted(moving))}), got [{args}]")
+            elif q.brackets == "i,j":
+                i_, j_ = (x.strip() for x in args.split(",", 1))
+                if i_ not in body_of or j_ not in body_of:
+                    problems.append(f"two link labels among {', '.join(sorted(body_of))}, got [{args}]")
+                elif (body_of[i_], body_of[j_]) not in pairs:
+                    joined = sorted({f"{labels.get(x, x)},{labels.get(y, y)}" for x, y in pairs})
+                    problems.append(f"two links joined by a joint ({'; '.join(joined)}), got [{args}]")
+            elif q.brackets == "P" and args not in printed:
+                problems.append(f"a point as printed ({', '.join(sorted(printed))}), got [{args}]")
+            if asked.group and asked.group not in groups:
+                problems.append(f"a superposition group among {', '.join(sorted(groups))}, got @{asked.group}")
+            if proj and link not in moving:
+                problems.append(f"a moving link's label in {proj}(…, k), got {link!r}")
+            for p_ in problems:
+                c.err(m, "of", w, f"expected {p_}")
+        if plain and plain.quantity.name not in ("param", "driver") and a.unit:
+            try:
+                same = units.si_unit(a.unit) == units.si_unit(plain.si)
+            except GradekitError:
+                continue  # an unreadable unit is reported by _answers
+            if not same:
+                c.err(m, "unit", f"answers[{i}].unit", f"expected a unit of the same kind as {plain.si} for "
+                      f"{a.of}, got {a.unit!r}")
+
+
+def _answer_keys(answers: tuple[AnswerSpec, ...], cases: dict) -> set[str]:
+    """The keys answers are known by: ``T``, or ``T_a``, ``T_b`` for an answer asked in every case."""
+    out: set[str] = set()
+    for a in answers:
+        if a.case is not None or not cases:
+            out.add(a.key)
+        else:
+            out.update(f"{a.key}_{k}" for k in cases)
+    return out
+
+
 def _published(c: _Collector, data: dict, keys: set[str], cases: dict) -> tuple[Published, ...]:
+    """``published:``: ``answers`` by key (``T_a`` for case a), or a block per case
+    (``cases: {a: {T: …}}``); each ``{value, unit, rel and/or abs, note}``."""
     node = data.get("published")
     if node is None:
         return ()
-    m = c.mapping(node, "published", (), ("answers", "note"), data, "published") or {}
-    ans = m.get("answers", {})
-    am = c.mapping(ans, "published.answers", (), tuple(sorted(keys)), m, "answers") or {}
+    m = c.mapping(node, "published", (), ("answers", "cases", "note"), data, "published") or {}
+    blocks = [("published.answers", m.get("answers", {}), m, "answers", "")]
+    cnode = m.get("cases")
+    if cnode is not None:
+        cm = c.mapping(cnode, "published.cases", (), tuple(cases), m, "cases") or {}
+        blocks += [(f"published.cases.{k}", cm[k], cm, k, f"_{k}") for k in cm]
     out = []
-    for k, spec in am.items():
-        w = f"published.answers.{k}"
-        s = c.mapping(spec, w, ("value", "unit", "rel"), ("note",), am, k)
-        if s is None:
-            continue
-        v = c.number(s, "value", f"{w}.value")
-        unit = c.unit(s, "unit", f"{w}.unit")
-        rel = c.number(s, "rel", f"{w}.rel", positive=True)
-        out.append(Published(k, v or 0.0, unit, rel or 0.0, str(s.get("note", ""))))
+    for where, ans, parent, pkey, suffix in blocks:
+        allowed = sorted(keys) if not suffix else sorted(k[: -len(suffix)] for k in keys if k.endswith(suffix))
+        am = c.mapping(ans, where, (), tuple(allowed), parent, pkey) or {}
+        for k, spec in am.items():
+            w = f"{where}.{k}"
+            s = c.mapping(spec, w, ("value", "unit"), ("rel", "abs", "note"), am, k)
+            if s is None:
+                continue
+            v = c.number(s, "value", f"{w}.value")
+            unit = c.unit(s, "unit", f"{w}.unit")
+            rel = c.number(s, "rel", f"{w}.rel", 0.0) or 0.0
+            ab = c.number(s, "abs", f"{w}.abs", 0.0) or 0.0
+            if rel < 0 or ab < 0 or rel + ab <= 0:
+                c.err(s, "rel", w, f"expected the printed precision: rel > 0 or abs > 0 (both ≥ 0); got rel {rel}, "
+                      f"abs {ab}")
+            out.append(Published(k + suffix, v or 0.0, unit, rel, str(s.get("note", "")), ab))
     return tuple(out)
 
 

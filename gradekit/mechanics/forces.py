@@ -22,8 +22,18 @@ from functools import cached_property
 import numpy as np
 
 from gradekit.mechanics.errors import ConditioningError, GeometryError
-from gradekit.mechanics.jet import P, along
-from gradekit.mechanics.model import GROUND, Analysis, Batched, Linkage, Load, Prismatic, Refusals
+from gradekit.mechanics.jet import Jet, P, along
+from gradekit.mechanics.model import (
+    GROUND,
+    Analysis,
+    Batched,
+    Linkage,
+    Load,
+    MotionLoad,
+    Prismatic,
+    Refusals,
+    Spot,
+)
 
 VW_LIMIT = 1e-9
 
@@ -329,13 +339,110 @@ def _load_vector(link: Linkage, ld: Load) -> np.ndarray:
     return _xy(*ld.force)
 
 
+def spot_point(link: Linkage, spot: Spot) -> P:
+    """The world point (jets) of a point fixed on a body, the ground included."""
+    if spot.body == GROUND:
+        base = link.points[spot.at] if spot.at else P.fixed(0.0, 0.0)
+        return along(base, Jet(0.0), spot.along, spot.across)
+    return load_point(link, spot.body, spot.at, spot.along, spot.across)
+
+
+def _motion_forces(link: Linkage, ml: MotionLoad):
+    """Yield (body, Load locating the point, force vector, couple) of one motion-dependent load,
+    computed from *link*'s kinematics (bodies other than the ground only)."""
+    if ml.kind == "rotary_damper":
+        rate = link.bodies[ml.body].angle.d - (link.bodies[ml.other].angle.d if ml.other != GROUND else 0.0)
+        couple = -np.asarray(ml.coefficient) * rate
+        yield ml.body, None, np.zeros(2), _num(couple)
+        if ml.other != GROUND:
+            yield ml.other, None, np.zeros(2), _num(-couple)
+        return
+    pts = [spot_point(link, e) for e in ml.ends]
+    if ml.kind == "resistance":
+        v = _vel(pts[0])
+        speed = np.hypot(v[..., 0], v[..., 1])
+        with np.errstate(all="ignore"):
+            f = -_col(ml.coefficient) * np.where(_col(speed) > 0, v / _col(np.where(speed > 0, speed, 1.0)), 0.0)
+        end = ml.ends[0]
+        yield end.body, Load(ml.group, end.body, (0.0, 0.0), 0.0, end.at, end.along, end.across), f, 0.0
+        return
+    d = _pos(pts[1]) - _pos(pts[0])
+    length = np.hypot(d[..., 0], d[..., 1])
+    u = d / _col(np.where(length > 0, length, 1.0))
+    if ml.kind == "damper":
+        size = _col(ml.coefficient) * _col(np.sum((_vel(pts[1]) - _vel(pts[0])) * u, axis=-1))
+    else:  # spring
+        size = _col(ml.coefficient) * _col(length - np.asarray(ml.free_length, float))
+    on_q = -size * u
+    for end, f in ((ml.ends[0], -on_q), (ml.ends[1], on_q)):
+        if end.body != GROUND:
+            yield end.body, Load(ml.group, end.body, (0.0, 0.0), 0.0, end.at, end.along, end.across), f, 0.0
+
+
+def _motion_refusals(link: Linkage, an: Analysis, refused: Refusals) -> None:
+    """A resistance opposes its point's velocity: undefined where that point is at rest; a damper or
+    spring has no direction where its ends coincide."""
+    for ml in an.motion_loads:
+        pts = [spot_point(link, e) for e in ml.ends]
+        if ml.kind == "resistance":
+            v = _vel(pts[0])
+            still = np.hypot(v[..., 0], v[..., 1]) <= 1e-12 * np.abs(link.bodies[link.input_body].angle.d) * link.scale
+            refused.add(still, lambda i, g=ml.group: f"load {g}: the point it resists is at rest here, so its "
+                        "direction is undefined; choose another crank angle")
+        elif pts:
+            d = _pos(pts[1]) - _pos(pts[0])
+            refused.add(np.hypot(d[..., 0], d[..., 1]) <= 1e-12 * link.scale,
+                        lambda i, g=ml.group: f"load {g}: its two ends coincide, so its direction is undefined")
+
+
+def frame_reaction(link: Linkage, x: np.ndarray, about: np.ndarray):
+    """The shaking force and moment: what the mechanism exerts on the frame through its ground pins
+    and slides, plus the reaction of the driver (whose motor or actuator sits on the frame).
+
+    *x*: (N, ncol) unknowns (a group's or the total); *about*: (N, 2) or (2,) the moment centre.
+    Returns ((N, 2) force, (N,) moment about *about*, CCW positive).
+    """
+    n = x.shape[0]
+    force = np.zeros((n, 2))
+    moment = np.zeros(n)
+
+    def add(f, point, couple=0.0):
+        nonlocal force, moment
+        f = np.broadcast_to(f, (n, 2))
+        force = force + f
+        moment = moment + _cross(np.broadcast_to(point, (n, 2)) - about, f) + couple
+
+    for k, j in enumerate(link.joints):
+        u = x[:, 2 * k : 2 * k + 2]
+        pt = _pos(j.point)
+        if isinstance(j, Prismatic):
+            if j.guide == GROUND:  # unknowns: normal force and couple of the guide on the block
+                add(-_col(u[:, 0]) * _unit(j.axis.v + math.pi / 2), pt, -u[:, 1])
+        elif j.a == GROUND:  # the force of the ground on body b
+            add(-u, pt)
+        elif j.b == GROUND:
+            add(u, pt)
+    drv = link.driver
+    if drv.kind == "torque":
+        moment = moment - x[:, -1]
+    else:
+        jnt = next(j for j in link.joints if j.name == drv.joint)
+        add(-_col(x[:, -1]) * _unit(jnt.axis.v), _pos(jnt.point))
+    return force, moment
+
+
 def _known_forces(link: Linkage, an: Analysis, states: dict[str, BodyState]):
     """Yield (group, body, Load or None, force vector, couple, kind, name) of every known load.
 
-    A None load acts at the body's centre of mass (gravity, inertia).
+    A None load acts at the body's centre of mass (gravity, inertia). Motion-dependent loads
+    (dampers, springs, resistances) are computed here from the kinematics, so the equilibrium and
+    the virtual-work check use the same forces.
     """
     for i, ld in enumerate(an.loads):
         yield ld.group, ld.body, ld, _load_vector(link, ld), ld.torque, "load", ld.group or f"load{i}"
+    for ml in an.motion_loads:
+        for body, ld, f, tq in _motion_forces(link, ml):
+            yield ml.group, body, ld, f, tq, "load", ml.group
     for name, st in states.items():
         has_mass = np.any(np.asarray(st.mass) != 0)
         if an.gravity is not None and has_mass:
@@ -406,6 +513,7 @@ def solve_many(link: Linkage, an: Analysis, virtual: Linkage | None = None) -> S
             couple_cols.remove(ncol - 1)
 
         states = body_states(link, an)
+        _motion_refusals(link, an, refused)
         known = list(_known_forces(link, an, states))
         group_names = tuple(dict.fromkeys(kf[0] for kf in known))
         B = np.zeros((n, nrow, len(group_names)))

@@ -304,6 +304,9 @@ class Kind:
     dimensions: dict[str, tuple[str, str]] = field(default_factory=dict)
     loop: tuple[str, ...] = ()
     dead_centre: tuple[str, str, str] | tuple[()] = ()
+    example: dict[str, float] = field(default_factory=dict)  # SI geometry that assembles (starter problems)
+    about: str = ""  # what the kind is, its points, and where offsets are measured from
+    branch: str = ""  # what branch +1 (open) and -1 (crossed) choose
 
 
 _POS = {"x_O2": 0.0, "y_O2": 0.0}
@@ -328,7 +331,17 @@ def _dims(*names: str) -> dict[str, tuple[str, str]]:
 
 KINDS: dict[str, Kind] = {
     "crank": Kind(
-        single_crank, ("crank",), dict(_POS), ("crank",), ("O2", "A"), bars=_CRANK, dimensions=_dims("crank")
+        single_crank,
+        ("crank",),
+        dict(_POS),
+        ("crank",),
+        ("O2", "A"),
+        bars=_CRANK,
+        dimensions=_dims("crank"),
+        example={"crank": 0.1},
+        about="One link O2A pinned to the frame at O2 and driven: the inertia force and couple of a single link. "
+        "O2 is at (x_O2, y_O2).",
+        branch="no closure: branch does not matter.",
     ),
     "fourbar": Kind(
         fourbar,
@@ -340,6 +353,11 @@ KINDS: dict[str, Kind] = {
         bars=_FOURBAR_BARS,
         dimensions=_dims("crank", "coupler", "rocker", "frame"),
         loop=("crank", "coupler", "rocker", "frame"),
+        example={"crank": 0.05, "coupler": 0.15, "rocker": 0.12, "frame": 0.14},
+        about="Crank O2A, coupler AB and rocker O4B; the frame O2O4 has length `frame` at `frame_angle` from +x "
+        "(O2 at (x_O2, y_O2)).",
+        branch="open (+1) puts B on the left of the line A→O4 (above the frame for a frame along +x and a "
+        "crank above it); crossed (-1) on the right.",
     ),
     "slider_crank": Kind(
         slider_crank,
@@ -352,6 +370,11 @@ KINDS: dict[str, Kind] = {
         bars={**_CRANK, "rod": (("A", "B"),)},
         dimensions=_dims("crank", "rod"),
         dead_centre=("O2", "A", "B"),
+        example={"crank": 0.05, "rod": 0.2},
+        about="Crank O2A, connecting rod AB and slider B. The slide line runs at `slide_angle` from +x; `offset` "
+        "is its distance from O2, measured along the slide axis' left normal (for a horizontal slide, "
+        "+offset puts the line above O2). Drivers: crank (a torque) or slider (a force along the slide).",
+        branch="open (+1) puts the slider ahead of the crank pin A along the slide axis; crossed (-1) behind.",
     ),
     "slotted_lever": Kind(
         slotted_lever,
@@ -363,6 +386,10 @@ KINDS: dict[str, Kind] = {
         bars=_SLOTTED_BARS,
         slotted="lever",
         dimensions=_dims("crank", "frame", "lever"),
+        example={"crank": 0.1, "frame": 0.2, "lever": 0.4},
+        about="Crank O2A; block A slides in the slotted lever O4C (C at `lever` from O4 along O4→A). The lever "
+        "pivot O4 is at `frame` from O2 at `frame_angle` (-90°: below O2).",
+        branch="no closure choice: branch does not matter.",
     ),
     **{
         name: Kind(
@@ -375,6 +402,19 @@ KINDS: dict[str, Kind] = {
             bars={**_SLOTTED_BARS, "link": (("C", "D"),)},
             slotted="lever",
             dimensions=_dims("crank", "frame", "lever", "link"),
+            example=(
+                {"crank": 0.1, "frame": 0.05, "lever": 0.15, "link": 0.25, "ram_offset": 0.05}
+                if name == "whitworth"
+                else {"crank": 0.1, "frame": 0.3, "lever": 0.5, "link": 0.2, "ram_offset": 0.5}
+            ),
+            about=(
+                "Crank O2A; block A slides in lever O4C (C at `lever` from O4 along O4→A; a negative lever puts C "
+                "on the other side of O4); link CD; ram D on a slide line at `slide_angle`, `ram_offset` from O4 "
+                "along the slide axis' left normal. O4 is at `frame` from O2 at `frame_angle` (-90°: below O2). "
+                + ("Whitworth: frame < crank, the lever turns fully." if name == "whitworth"
+                   else "Crank shaper: frame > crank, the lever rocks.")
+            ),
+            branch="open (+1) puts the ram D ahead of C along the slide axis; crossed (-1) behind.",
         )
         for name in ("whitworth", "crank_shaper")
     },
@@ -388,9 +428,50 @@ KINDS: dict[str, Kind] = {
         bars={**_FOURBAR_BARS, "rocker": (("O4", "B"), ("O4", "C")), "link": (("C", "D"),)},
         dimensions=_dims("crank", "coupler", "rocker", "frame", "arm", "link"),
         loop=("crank", "coupler", "rocker", "frame"),
+        example={"crank": 0.05, "coupler": 0.15, "rocker": 0.12, "frame": 0.14, "arm": 0.2, "link": 0.2,
+                 "ram_offset": 0.25},
+        about="A crank-rocker four-bar (as fourbar) whose rocker, extended to C at `arm` from O4 along O4→B, "
+        "drives link CD and ram D on a slide line at `slide_angle`, `ram_offset` from O4 along the slide axis' "
+        "left normal.",
+        branch="branch chooses the four-bar's closure (as fourbar); ram_branch +1 puts D ahead of C along the "
+        "slide axis, -1 behind.",
     ),
 }
 ANGLE_PARAMS = frozenset(a for k in KINDS.values() for a in k.angles)
+
+
+@functools.cache
+def _carriers(kind: str) -> tuple[tuple[str, tuple[str, ...]], ...]:
+    spec = KINDS[kind]
+    link = build(kind, spec.example, Motion(np.radians(60.0), 10.0))
+    out: dict[str, list[str]] = {p: [] for p in spec.points}
+
+    def at(name: str, q: P) -> bool:
+        return bool(np.hypot(*(link.points[name].pos() - q.pos())) < 1e-9 * link.scale)
+
+    for name in spec.points:
+        for j in link.joints:
+            if isinstance(j, Revolute) and at(name, j.point):
+                out[name] += [j.a, j.b]
+        for body, b in link.bodies.items():
+            if at(name, b.origin) or any(name in seg for seg in spec.bars.get(body, ())):
+                out[name].append(body)
+    order = (GROUND, *spec.bodies)
+    return tuple((p, tuple(b for b in order if b in bs)) for p, bs in out.items())
+
+
+@functools.cache
+def joint_pairs(kind: str) -> frozenset[tuple[str, str]]:
+    """Every pair of bodies a joint of *kind* joins (both orders): where ``F[i,j]`` exists."""
+    link = build(kind, KINDS[kind].example, Motion(np.radians(60.0), 10.0))
+    pairs = [(j.a, j.b) if isinstance(j, Revolute) else (j.guide, j.block) for j in link.joints]
+    return frozenset(pairs + [(b, a) for a, b in pairs])
+
+
+def carriers(kind: str) -> dict[str, tuple[str, ...]]:
+    """The bodies each of a kind's points is fixed on (``ground`` for a fixed pivot), read from the
+    kind's example position: its pins, body origins and drawing bars."""
+    return dict(_carriers(kind))
 
 
 def build_many(

@@ -204,6 +204,45 @@ class Load:
 
 
 @dataclass(frozen=True)
+class Spot:
+    """A point fixed on *body* (``ground`` allowed): from point *at* (body origin if empty) *along*
+    and *across* (to the left of) the body axis; the ground's axis is +x and its origin (0, 0)."""
+
+    body: str
+    at: str = ""
+    along: float = 0.0
+    across: float = 0.0
+
+    def take(self, i: int) -> Spot:
+        return Spot(self.body, self.at, _take(self.along, i), _take(self.across, i))
+
+
+@dataclass(frozen=True)
+class MotionLoad:
+    """A load that depends on the motion, a known load once the kinematics are known.
+
+    ``kind``: ``damper`` (ends P, Q; force on Q −c·(v_Q − v_P)·u and its opposite on P, u the unit
+    vector P→Q), ``spring`` (force on Q −k·(|PQ| − free_length)·u and its opposite on P),
+    ``rotary_damper`` (couple −c·(ω_body − ω_other) on *body*, its opposite on *other*) or
+    ``resistance`` (force of size *coefficient* at P opposing P's velocity). SI throughout.
+    """
+
+    group: str
+    kind: str
+    coefficient: float
+    ends: tuple[Spot, ...] = ()
+    free_length: float = 0.0
+    body: str = ""
+    other: str = GROUND
+
+    def take(self, i: int) -> MotionLoad:
+        return MotionLoad(
+            self.group, self.kind, _take(self.coefficient, i), tuple(e.take(i) for e in self.ends),
+            _take(self.free_length, i), self.body, self.other,
+        )
+
+
+@dataclass(frozen=True)
 class Analysis:
     """What to include: inertia (d'Alembert) and gravity (vector g in m/s², or None)."""
 
@@ -212,6 +251,8 @@ class Analysis:
     mass: dict[str, MassProps] = field(default_factory=dict)
     loads: tuple[Load, ...] = ()
     max_condition: float = 1e7
+    motion_loads: tuple[MotionLoad, ...] = ()
+    points: dict[str, Spot] = field(default_factory=dict)  # points a problem defines on its bodies
 
     def take(self, i: int) -> Analysis:
         """Variant *i* of a batched analysis."""
@@ -236,6 +277,8 @@ class Analysis:
                 for ld in self.loads
             ),
             _take(self.max_condition, i),
+            tuple(m.take(i) for m in self.motion_loads),
+            {k: p.take(i) for k, p in self.points.items()},
         )
 
 
