@@ -624,6 +624,11 @@ def validate(data: dict, path: str) -> Problem:
     inputs = {k: v for k in inp if (v := _value(c, inp, k, f"mechanism.input.{k}", names)) is not None}
     if analysis == "dynamic" and "omega" not in inputs:
         c.err(inp, None, "mechanism.input.omega", "expected the crank speed for a dynamic analysis, got nothing")
+    moving_loads = [ld.get("type") for ld in data.get("loads", []) or [] if isinstance(ld, dict)
+                    and ld.get("type", "force") != "force"]
+    if moving_loads and "omega" not in inputs:
+        c.err(inp, None, "mechanism.input.omega",
+              f"expected the crank speed: a {moving_loads[0]} load depends on the motion, got nothing")
 
     body_names = set(spec.bodies) if spec else set()
     point_set = set(spec.points) if spec else set()
@@ -734,8 +739,15 @@ def _defined_points(c, mech, nodes: dict, names: set[str], shown: dict[str, str]
         if printed in shown.values():
             c.err(pnode, printed, w, f"expected a new point name, got {printed!r}, which the mechanism prints already")
             continue
+        if isinstance(spec, LineDict) and True in spec:  # YAML 1.1 reads a bare `on` key as true
+            fixed = LineDict()
+            fixed.line = spec.line
+            for k, v in spec.items():
+                fixed["on" if k is True else k] = v
+                fixed.lines["on" if k is True else k] = spec.lines.get(k, spec.line)
+            spec = fixed
         m = c.mapping(spec, w, ("on", "from"), ("along", "perp"), pnode, printed)
-        if m is None:
+        if m is None or "on" not in m:
             continue
         body = _body_named(c, m, "on", f"{w}.on", bodies, labels, ground=True)
         at = _point(c, m, f"{w}.from", shown, key="from")
