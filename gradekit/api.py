@@ -210,5 +210,6 @@ def grade(
         keys, _ = class_keys(asg, ids, redraws)
     titles = {it.label: f"{it.label}: {it.problem.title}" for it in asg.items}
     return grade_batch(
-        keys, students, Path(submissions), Path(out), assignment_title=asg.title, reveal=reveal, problem_titles=titles
+        keys, students, Path(submissions), Path(out), assignment_title=asg.title, reveal=reveal, problem_titles=titles,
+        hint=asg.feedback,
     )

@@ -127,3 +127,15 @@ def test_tolerance_floors_compare_answers_of_one_dimension_in_si(tmp_path):
     assert f03.scale == pytest.approx(largest_newtons, rel=1e-12)
     assert f23.scale == pytest.approx(largest_newtons / 1000.0, rel=1e-12)
     assert not f23.tolerance.accepts(0.0, f23.value)
+
+
+def test_the_assignments_feedback_choice_reaches_the_students_files(course):
+    """`feedback: band` in the assignment: a wrong answer's feedback says how many tolerances off
+    (1.5 bands here: "within twice the tolerance"), never the amount."""
+    text = (course / "hw.yaml").read_text(encoding="utf-8") + "feedback: band\n"
+    (course / "hw_band.yaml").write_text(text, encoding="utf-8")
+    r = _cli("grade", "hw_band.yaml", "--roster", "roster.csv", "--submissions", "subs", "--manifest",
+             "gen/manifest.json", "--out", "g5", cwd=course)
+    assert r.returncode == 0, r.stderr
+    feedback = (course / "g5" / "feedback" / "1002.md").read_text(encoding="utf-8")
+    assert "too high, within twice the tolerance" in feedback

@@ -346,9 +346,9 @@ def _drawn(result, what: tuple):
     if hit is not None:
         return hit
     if what[0] == "scene":
-        out = figures.to_svg(figures.scene(result, what[1], true_scale=what[2]))
+        out = figures.scene_svg(result, what[1], true_scale=what[2])
     else:
-        out = [(slug, caption, figures.to_svg(fig)) for slug, caption, fig in figures.key_figures(result)]
+        out = figures.key_figure_svgs(result)
     if len(_DRAWN) >= _DRAWN_MAX:
         _DRAWN.pop(next(iter(_DRAWN)))
     _DRAWN[cache_key] = out

@@ -40,6 +40,27 @@ def key_figures(result: Result) -> list[tuple[str, str, object]]:
     return [(slug, caption, make()) for slug, caption, make in key_figure_specs(result)]
 
 
+def scene_svg(result: Result, case: str | None = None, *, true_scale: bool = False) -> bytes:
+    """`scene` as SVG bytes, written straight from the display list (no matplotlib; documents use it)."""
+    from gradekit.figures.assignment import build_scene
+    from gradekit.figures.canvas import svg
+
+    return svg(build_scene(result, case, true_scale))
+
+
+def key_figure_svgs(result: Result) -> list[tuple[str, str, bytes]]:
+    """`key_figures` as (slug, caption, SVG bytes); drawings written straight from their display
+    lists, plotted curves through matplotlib."""
+    from gradekit.figures.canvas import Canvas, svg
+    from gradekit.figures.key import key_drawings
+
+    out = []
+    for slug, caption, make in key_drawings(result):
+        drawn = make()
+        out.append((slug, caption, svg(drawn) if isinstance(drawn, Canvas) else to_svg(drawn)))
+    return out
+
+
 def to_svg(fig) -> bytes:
     """SVG bytes of *fig* (text kept as text), identical for identical figures; closes *fig*."""
     buf = io.BytesIO()

@@ -374,3 +374,70 @@ def render(cv: Canvas, margin: float = 6.0, extent: tuple[float, float, float, f
         add(LineCollection(segs, colors=color, linewidths=lw, linestyles=ls, zorder=z, capstyle=cap, transform=T))
     fig._gradekit_origin = (x0, y0)  # paper position of the figure's lower-left corner, in points
     return fig
+
+
+# matplotlib's dash patterns (in units of the line width), so both renderers draw alike
+_DASHES = {"--": (3.7, 1.6), "-.": (6.4, 1.6, 1.0, 1.6), ":": (1.0, 1.65)}
+_ANCHOR = {"center": "middle", "left": "start", "right": "end"}
+
+
+def svg(cv: Canvas, margin: float = 6.0, extent: tuple[float, float, float, float] | None = None) -> bytes:
+    """SVG of *cv* written straight from the display list: the same drawing as `render` + savefig
+    (sizes in points, z-order, dash patterns, text as text in DejaVu Sans), without matplotlib.
+
+    Documents use it: building and saving a matplotlib Figure costs ~25 ms a figure, this ~1 ms.
+    The output is deterministic (no ids but the items' gids, no dates).
+    """
+    from xml.sax.saxutils import escape, quoteattr
+
+    x0, y0, x1, y1 = extent or cv.extent()
+    x0, y0, x1, y1 = x0 - margin, y0 - margin, x1 + margin, y1 + margin
+    W, H = x1 - x0, y1 - y0
+
+    def pts(xy: np.ndarray) -> str:
+        return " ".join(f"{x - x0:.2f},{y1 - y:.2f}" for x, y in xy)
+
+    def gid(st: dict) -> str:
+        return f" id={quoteattr(st['gid'])}" if st.get("gid") else ""
+
+    z_text = 8.0
+    order = sorted(range(len(cv.items)), key=lambda i: (cv.items[i].style.get("z", z_text), i))
+    out = [
+        '<?xml version="1.0" encoding="utf-8" standalone="no"?>',
+        f'<svg xmlns="http://www.w3.org/2000/svg" width="{W:.2f}pt" height="{H:.2f}pt" '
+        f'viewBox="0 0 {W:.2f} {H:.2f}" version="1.1">',
+    ]
+    for i in order:
+        it = cv.items[i]
+        st = it.style
+        if it.kind == "line":
+            dash = _DASHES.get(st["ls"])
+            lw = st["lw"]
+            dashes = (' stroke-dasharray="' + ",".join(f"{d * lw:.2f}" for d in dash) + '"') if dash else ""
+            out.append(
+                f'<polyline{gid(st)} points="{pts(it.xy)}" fill="none" stroke="{st["color"]}" '
+                f'stroke-width="{st["lw"]:.2f}" stroke-linecap="{"butt" if dash else st["cap"]}" '
+                f'stroke-linejoin="round"{dashes}/>'
+            )
+        elif it.kind == "polygon":
+            fill = "none" if st["fc"] in ("none", None) else st["fc"]
+            out.append(
+                f'<polygon{gid(st)} points="{pts(it.xy)}" fill="{fill}" stroke="{st["ec"]}" '
+                f'stroke-width="{st["lw"]:.2f}" stroke-linejoin="miter"/>'
+            )
+        elif it.kind == "text":
+            lines = st["s"].split("\n")
+            size = st["size"]
+            x, y = it.xy[0] - x0, y1 - it.xy[1]
+            top = y - (len(lines) - 1) * size * LINE_H / 2  # the block is centred on y, like va="center"
+            weight = ' font-weight="bold"' if st["weight"] == "bold" else ""
+            spans = "".join(
+                f'<tspan x="{x:.2f}" y="{top + k * size * LINE_H:.2f}">{escape(line)}</tspan>'
+                for k, line in enumerate(lines)
+            )
+            out.append(
+                f'<text{gid(st)} font-family="{FONT}" font-size="{size:g}" fill="{st["color"]}"{weight} '
+                f'text-anchor="{_ANCHOR[st["ha"]]}" dominant-baseline="central">{spans}</text>'
+            )
+    out.append("</svg>")
+    return ("\n".join(out) + "\n").encode("utf-8")

@@ -305,10 +305,20 @@ def torque_cycle(result: Result, n: int = 72):
 
 
 def key_figure_specs(result: Result) -> list[tuple[str, str, object]]:
-    """(slug, caption, make) of every key figure; *make()* draws it (so each can be timed alone).
+    """(slug, caption, make) of every key figure; *make()* returns its matplotlib Figure.
 
     Slugs are lower-case letters, digits and hyphens, unique within the variant.
     """
+    return [(slug, cap, lambda make=make: _as_figure(make())) for slug, cap, make in key_drawings(result)]
+
+
+def _as_figure(drawn):
+    return render(drawn) if isinstance(drawn, Canvas) else drawn
+
+
+def key_drawings(result: Result) -> list[tuple[str, str, object]]:
+    """(slug, caption, make) of every key figure; *make()* returns a `Canvas` (a display list in
+    points, for `canvas.svg`) or, for a plotted curve, a matplotlib Figure."""
     import re
 
     out = []
@@ -357,7 +367,7 @@ def _specs(result: Result) -> list[tuple[str, str, object]]:
             for which, word in (("vel", "Velocity"), ("acc", "Acceleration")):
                 out.append((f"{which}-polygon{tag}", f"{word} polygon{ctag}: images of the points from the pole o; "
                             "dashed lines join points of one link (relative motion)",
-                            lambda cr=cr, which=which: render(motion_polygon(result, cr, which))))
+                            lambda cr=cr, which=which: motion_polygon(result, cr, which)))
     if many and isinstance(pr.inputs.get("theta"), str) and pr.inputs["theta"] in pr.parameters:
         names = ", ".join(str(c.name) for c in result.cases)
         out.append(("torque-cycle", f"Driving torque over one crank turn; the asked positions {names} marked",
@@ -372,13 +382,13 @@ def _fbd_figure(result: Result, cr: CaseResult, body: str, member: Member):
     panels = [left]
     if len(member.forces) >= 2 and member.kind != "two-force":
         panels.append(polygon(result, cr, member, f"Force polygon of link {lab}"))
-    return render(row(panels))
+    return row(panels)
 
 
 def _maker(result: Result, cr: CaseResult, g):
     def make():
-        return render(row([polygon(result, cr, m, f"Link {result.problem.label(b)}") for b, m in g.members.items()
-                           if len(m.forces) >= 2 and m.kind != "two-force"]))
+        return row([polygon(result, cr, m, f"Link {result.problem.label(b)}") for b, m in g.members.items()
+                    if len(m.forces) >= 2 and m.kind != "two-force"])
     return make
 
 

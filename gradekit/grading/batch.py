@@ -313,6 +313,7 @@ def grade_batch(
     reveal: bool = False,
     problem_titles: Mapping[str, str] | None = None,
     histogram: bool = True,
+    hint: str = "direction",
 ) -> BatchResult:
     """Grade every submission in a folder and write grades, LMS imports, feedback and a report.
 
@@ -333,6 +334,7 @@ def grade_batch(
         reveal: show the correct values in the feedback.
         problem_titles: display names per ``KeyEntry.problem`` (defaults to the problem id).
         histogram: draw ``histogram.png`` (matplotlib).
+        hint: what feedback without *reveal* says of a wrong answer: ``direction`` or ``band``.
 
     Returns:
         The grades, every file's fate, the integrity flags and the files written.
@@ -364,8 +366,8 @@ def grade_batch(
         feedback.mkdir()
         for g in grades:
             stem = names[g.student.student_id]
-            write_text(feedback / f"{stem}.md", feedback_markdown(g, titles, assignment_title, reveal))
-            write_text(feedback / f"{stem}.html", feedback_html(g, titles, assignment_title, reveal))
+            write_text(feedback / f"{stem}.md", feedback_markdown(g, titles, assignment_title, reveal, hint))
+            write_text(feedback / f"{stem}.html", feedback_html(g, titles, assignment_title, reveal, hint))
         image = None
         if histogram:
             percents = [g.percent for g in grades if g.submission is not None]
