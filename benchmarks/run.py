@@ -1,6 +1,6 @@
 """Run every benchmark and write benchmarks/RESULTS.md.
 
-``python benchmarks/run.py [--quick]``: the solver, accuracy and stability studies of this folder
+``python benchmarks/run.py [--quick] [--only=accuracy,...]``: the solver, accuracy and stability studies of this folder
 and the other engineers' ``bench_grade`` / ``bench_figures`` / ``bench_generate`` (each through
 its ``run(quick) -> dict``; a missing or failing one is skipped with a note). Speeds are medians
 over several runs, ratios are measured within one run.
@@ -89,13 +89,36 @@ def _generate_md(res: dict) -> str:
     return "\n".join(rows) + "\n\n" + note
 
 
+def merged(path: Path, sections: list[tuple[str, str]], keep_order: bool) -> list[tuple[str, str]]:
+    """This run's sections with those of the existing RESULTS.md it did not produce (e.g. a section
+    another benchmark writes by its own command), kept as they are. With *keep_order* (``--only``)
+    the existing order stands and this run's sections replace theirs in place; else this run's
+    sections come first."""
+    old: list[tuple[str, list[str]]] = []
+    if path.is_file():
+        for line in path.read_text(encoding="utf-8").splitlines():
+            if line.startswith("## "):
+                old.append((line[3:].strip(), []))
+            elif old:
+                old[-1][1].append(line)
+    kept = [(t, "\n".join(lines).strip("\n")) for t, lines in old]
+    new = dict(sections)
+    if not keep_order:
+        return sections + [(t, x) for t, x in kept if t not in new]
+    out = [(t, new.pop(t, x)) for t, x in kept]
+    return out + list(new.items())
+
+
 def main(argv: list[str]) -> int:
     quick = "--quick" in argv
+    only = {x for a in argv if a.startswith("--only=") for x in a[len("--only=") :].split(",")}
     command = "python benchmarks/run.py" + (" --quick" if quick else "")
     t_all = time.perf_counter()
     sections: list[tuple[str, str]] = []
 
     def attempt(title: str, module: str, render, limit: float | None = None) -> None:
+        if only and module not in only:
+            return
         t = time.perf_counter()
         try:
             res = _in_child(module, quick, limit) if limit else importlib.import_module(module).run(quick)
@@ -122,7 +145,7 @@ def main(argv: list[str]) -> int:
         "bench_figures": "Figure time",
         "bench_generate": "Generate: students per minute",
     }
-    renderers = {"bench_generate": _generate_md}
+    renderers = {"bench_generate": _generate_md, "bench_grade": lambda r: r["markdown"]}
     for name in OTHERS:
         # generate at a class of 300 with keys takes minutes on 2 cores: give it room
         limit = (90.0 if quick else 1500.0) if name == "bench_generate" else (45.0 if quick else 300.0)
@@ -135,7 +158,12 @@ def main(argv: list[str]) -> int:
         f"Machine: {_machine()}.",
         "",
     ]
-    for title, text in sections:
+    if only and (HERE / "RESULTS.md").is_file():  # the other sections' preamble stands, with a note
+        pre = (HERE / "RESULTS.md").read_text(encoding="utf-8").split("\n## ", 1)[0].rstrip("\n").splitlines()
+        note = f"Re-run by `{command} --only={','.join(sorted(only))}` on {time.strftime('%Y-%m-%d %H:%M')}: "
+        body = "\n".join(ln for ln in pre if not ln.startswith("Re-run by ")).rstrip("\n").splitlines()
+        body += ["", note + ", ".join(t for t, _ in sections) + ".", ""]
+    for title, text in merged(HERE / "RESULTS.md", sections, keep_order=bool(only)):
         body += [f"## {title}", "", text, ""]
     (HERE / "RESULTS.md").write_text("\n".join(body), encoding="utf-8")
     print(f"wrote {HERE / 'RESULTS.md'} in {time.perf_counter() - t_all:.0f} s", file=sys.stderr)

@@ -18,6 +18,7 @@ from gradekit.bank.registry import load_bank
 from gradekit.errors import GradekitError
 from gradekit.keys import Tolerance
 from gradekit.mechanics.forces import VW_LIMIT
+from gradekit.mistakes import mistakes_many
 from gradekit.report import fmt
 from gradekit.sampling import class_variants, derive_seed, sample_many
 
@@ -42,9 +43,29 @@ def _self_grade_failures(key: str, tol: Tolerance, values: np.ndarray, scales: n
     return bad
 
 
+def _band_check(problem, a, sel: np.ndarray, found: dict) -> tuple[float, int]:
+    """How much wider than the band its draws were accepted with (the file's ``constraints.bands``)
+    answer *a* is graded (its largest ratio; 0 when never wider), and in how many of those variants
+    a draw would not pass ``gradable`` or ``distinguish`` at the grading band (the key too near zero
+    or a catalogued mistake inside the band)."""
+    c = problem.constraints
+    stated, graded = c.band(a)[sel], a.spec.tolerance.bands(a.value[sel], a.scale[sel])
+    wider = graded > stated * (1 + 1e-9)
+    if not wider.any():
+        return 0.0, 0
+    bad = (a.unit != "deg") & (np.abs(a.value[sel]) < c.gradable * graded)
+    for name, keys in c.distinguish:
+        m = next((m for m in found.get(a.key, []) if m.name == name), None)
+        if m is not None and any(a.key == k or a.key.startswith(k + "_") for k in keys):
+            gap = np.abs(a.spec.tolerance.difference(m.value[sel], a.value[sel]))
+            bad |= m.changed[sel] & (gap < c.distinguish_factor * graded)
+    return float(np.max(graded / stated)), int((bad & wider).sum())
+
+
 def check_problem(problem, n: int, class_size: int, echo: Callable[[str], None]) -> bool:
     """Check *n* variants of one problem (drawn and solved in batches); print its summary; True when all pass."""
     failures: list[str] = []
+    wide: dict[str, list] = {}  # answer -> [largest grading/draw band ratio, variants broken]
     randoms = any(p.random for p in problem.parameters.values())
     count = n if randoms else 1
     try:
@@ -81,6 +102,18 @@ def check_problem(problem, n: int, class_size: int, echo: Callable[[str], None])
             lo, hi = ranges.get(a.key, (math.inf, -math.inf))
             ranges[a.key] = (min(lo, float(vals.min())), max(hi, float(vals.max())))
             failures.extend(_self_grade_failures(a.key, a.spec.tolerance, vals, a.scale[sel]))
+            if randoms:
+                raw = next(r[2] for r in vb.rows if r is not None and r[0] is batch)
+                found = mistakes_many(batch, raw) if problem.constraints.distinguish else {}
+                ratio, broken = _band_check(problem, a, sel, found)
+                w = wide.setdefault(a.key, [0.0, 0])
+                w[0], w[1] = max(w[0], ratio), w[1] + broken
+    failures.extend(
+        f"{key}: graded at a band wider than the band its draws were accepted with (constraints.bands): "
+        f"{broken} variants would not pass gradable/distinguish at the grading band"
+        for key, (_ratio, broken) in wide.items()
+        if broken
+    )
     distinct = 1
     if randoms:
         try:
@@ -100,6 +133,9 @@ def check_problem(problem, n: int, class_size: int, echo: Callable[[str], None])
     )
     for key, (lo, hi) in ranges.items():
         echo(f"    {key:<14} {fmt(lo, 4):>12} .. {fmt(hi, 4):<12} {units.get(key, '')}")
+    for key, (ratio, _broken) in wide.items():
+        if ratio:
+            echo(f"    ~ {key}: graded at up to {ratio:.3g}x the band its draws were accepted with")
     for f in failures[:10]:
         echo(f"    ! {f}")
     if len(failures) > 10:

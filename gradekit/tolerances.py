@@ -1,20 +1,23 @@
-"""Default answer tolerances per method and answer kind, chosen from measurement.
+"""Default answer tolerances per method and answer kind, read from the measurement.
 
-The numbers come from `gradekit.tolerance_study` (``python benchmarks/run.py``, tables in
-benchmarks/RESULTS.md): honest students are simulated on every bank problem over many variants,
-and each default is the tightest band rejecting fewer than 0.1 % of honest answers. Honest work
-means four significant figures carried through (what every sheet instructs) and, for graphical
-problems, also a drawing at the printed scale read to ±0.5 mm and ±0.5°. ``floor`` is a fraction
-of the variant's scale (its largest answer of the same dimension), so small components are
-judged by the accuracy of the whole construction.
+The defaults are the ``_kind_defaults`` section of ``problem_bank/_tolerances.yaml``, written by
+``python benchmarks/derive_tolerances.py`` from the honest-student study (benchmarks/RESULTS.md):
+per (method, answer kind), the narrowest band whose 95 % upper bound of the honest false-reject
+rate is below 0.1 % on every answer of that kind in the bank. Nothing here is copied by hand.
+``floor`` is a fraction of the variant's scale (its largest answer of the same dimension), so
+small components are judged by the accuracy of the whole construction; angles wrap at 360°.
 """
 
 from __future__ import annotations
 
+import functools
+
 from gradekit import units
+from gradekit.errors import GradekitError
 from gradekit.keys import Tolerance
 
 KINDS = ("angle", "force", "force-component", "torque", "kinematic", "length")
+SECTION = "_kind_defaults"
 
 
 def answer_kind(of: str, unit: str) -> str:
@@ -31,26 +34,40 @@ def answer_kind(of: str, unit: str) -> str:
     return "kinematic"
 
 
-# (method, kind) -> default, for answers the per-answer table (problem_bank/_tolerances.yaml) does not
-# cover yet. Measured by `python benchmarks/derive_tolerances.py` over the whole bank (21 problems,
-# 40 variants x 30 simulated students per model), pooled per kind: honest false-reject / worst
-# mistake detection. The worst detections are physics: a mistake smaller than honest error.
-DEFAULTS: dict[tuple[str, str], Tolerance] = {
-    ("analytical", "angle"): Tolerance("relative", 0.0, 1.5, period=360.0),  # 0.00 % / 100 %
-    ("analytical", "force"): Tolerance("relative", 0.025),  # 0.04 % / 77.1 % (inertia torque left out)
-    ("analytical", "force-component"): Tolerance("relative", 0.03, floor=0.03),  # 0.07 % / 41.7 % (gravity)
-    ("analytical", "kinematic"): Tolerance("relative", 0.001, floor=0.03),  # 0.08 % / 99.3 %
-    ("analytical", "length"): Tolerance("relative", 0.0075, floor=0.03),  # 0.10 % / 100 %
-    ("analytical", "torque"): Tolerance("relative", 0.015, floor=0.1),  # 0.09 % / 30.0 % (gravity)
-    ("graphical", "angle"): Tolerance("relative", 0.0, 5.0, period=360.0),  # 0.23 % (loosest tried) / 51.7 %
-    ("graphical", "force"): Tolerance("relative", 0.1, floor=0.03),  # 0.07 % / 71.2 %
-    ("graphical", "force-component"): Tolerance("relative", 0.1, floor=0.03),  # as force (none in the bank)
-    ("graphical", "kinematic"): Tolerance("relative", 0.1),  # 0.06 % / 100 %
-    ("graphical", "length"): Tolerance("relative", 0.1),  # 0.06 % / 100 %
-    ("graphical", "torque"): Tolerance("relative", 0.1, floor=0.1),  # 0.10 % / 96.2 %
-}
+def from_row(row: dict) -> Tolerance:
+    """A band of the generated table: ``{deg}`` for angles, else ``{rel, floor}``."""
+    if "deg" in row:
+        return Tolerance("relative", 0.0, float(row["deg"]), period=360.0)
+    return Tolerance("relative", float(row["rel"]), 0.0, floor=float(row["floor"]))
+
+
+@functools.lru_cache(maxsize=1)
+def defaults() -> dict[tuple[str, str], Tolerance]:
+    """``(method, kind) -> Tolerance`` from the bank's generated ``_tolerances.yaml``."""
+    import yaml
+
+    from gradekit.resources import resource_dir
+
+    f = resource_dir("problem_bank") / "_tolerances.yaml"
+    try:
+        data = yaml.safe_load(f.read_text(encoding="utf-8")) or {}
+        table = data[SECTION]
+        out = {(m, k): from_row(r) for m, kinds in table.items() for k, r in kinds.items()}
+    except (OSError, yaml.YAMLError, KeyError, TypeError, ValueError) as exc:
+        raise GradekitError(
+            f"{f}: expected the generated tolerance table with its {SECTION} section "
+            f"(python benchmarks/derive_tolerances.py), got {type(exc).__name__}: {exc}"
+        ) from None
+    for m in ("analytical", "graphical"):  # a kind no bank answer has yet: that of the other method, or the loosest
+        for k in KINDS:
+            if (m, k) not in out:
+                other = [t for (mm, kk), t in out.items() if kk == k] or [
+                    t for (mm, kk), t in out.items() if (kk == "angle") == (k == "angle")
+                ]
+                out[(m, k)] = max(other, key=lambda t: (t.abs, t.rel, t.floor))
+    return out
 
 
 def default(method: str, of: str, unit: str) -> Tolerance:
     """The measured default for an answer of *method* asking for *of* in *unit*."""
-    return DEFAULTS[(method, answer_kind(of, unit))]
+    return defaults()[(method, answer_kind(of, unit))]

@@ -1,16 +1,23 @@
-"""Tolerance modes, angle wrap, scale floors, and where each answer's default comes from."""
+"""Tolerance modes, angle wrap, scale floors, where each answer's default comes from, and the
+bands the sampler judges draws by (stated in the problem file, never the measured table)."""
 
 from __future__ import annotations
 
 import math
 
+import numpy as np
 import pytest
+import yaml
+from click.testing import CliRunner
 
-from gradekit.bank.registry import load_bank
+from gradekit.bank.registry import bank_dir, load_bank
 from gradekit.bank.schema import load_problem
+from gradekit.cli import main
+from gradekit.errors import GradekitError
 from gradekit.keys import Tolerance
 from gradekit.pipeline import published_values, solve_problem
-from gradekit.tolerances import DEFAULTS, answer_kind
+from gradekit.sampling import sample_many
+from gradekit.tolerances import answer_kind, defaults, from_row
 
 EX51 = "problem_bank/ch5_ex5_1_slider_crank_static.yaml"
 
@@ -48,7 +55,7 @@ def test_answer_kinds():
     assert answer_kind("aG[2].angle", "deg") == "angle"
     assert answer_kind("h[2]", "mm") == "length"
     assert answer_kind("alpha[2]", "rad/s**2") == "kinematic"
-    assert all(DEFAULTS[(m, "angle")].period == 360 for m in ("analytical", "graphical"))
+    assert all(defaults()[(m, "angle")].period == 360 for m in ("analytical", "graphical"))
 
 
 def test_measured_defaults_apply_and_explicit_tolerances_win(tmp_path):
@@ -61,7 +68,7 @@ def test_measured_defaults_apply_and_explicit_tolerances_win(tmp_path):
     )
     t = {a.key: a.tolerance for a in load_problem(measured / "ex51.yaml").answers}
     assert (t["F23"].rel, t["F23"].floor) == (0.0123, 0.004)  # the row beside the file
-    assert t["T"] == DEFAULTS[("graphical", "torque")]  # no row: the per-kind default
+    assert t["T"] == defaults()[("graphical", "torque")]  # no row: the per-kind default
     explicit = text.replace(
         'description: "connecting rod force at the piston pin C, magnitude"}',
         'description: "connecting rod force at the piston pin C, magnitude", tolerance: {rel: 0.002}}',
@@ -69,7 +76,7 @@ def test_measured_defaults_apply_and_explicit_tolerances_win(tmp_path):
     assert explicit != text
     (measured / "explicit.yaml").write_text(explicit, encoding="utf-8")
     tq = {a.key: a.tolerance for a in load_problem(measured / "explicit.yaml").answers}
-    assert tq["F23"].rel == 0.002 and tq["F23"].floor == DEFAULTS[("graphical", "force")].floor  # explicit wins
+    assert tq["F23"].rel == 0.002 and tq["F23"].floor == defaults()[("graphical", "force")].floor  # explicit wins
 
 
 def test_every_angle_answer_of_the_bank_wraps():
@@ -79,3 +86,69 @@ def test_every_angle_answer_of_the_bank_wraps():
             if a.unit == "deg":
                 assert a.tolerance.period == 360.0, (p.id, a.key)
                 assert a.tolerance.accepts(a.value + 360.0, a.value)
+
+
+def test_per_kind_defaults_are_the_generated_table():
+    table = yaml.safe_load((bank_dir() / "_tolerances.yaml").read_text(encoding="utf-8"))["_kind_defaults"]
+    for method, kinds in table.items():
+        for kind, row in kinds.items():
+            assert defaults()[(method, kind)] == from_row(row), (method, kind)
+    assert {k for _, k in defaults()} == {"angle", "force", "force-component", "torque", "kinematic", "length"}
+
+
+EX53 = "problem_bank/ch5_ex5_3_fourbar_dynamic.yaml"
+
+
+def _students(path, n=40):
+    vb = sample_many(load_problem(path), course="MEG373", salt="hw", students=[f"s{i}" for i in range(n)])
+    return {k: v.tolist() for k, v in vb.values.items()}, vb.draws.tolist()
+
+
+def test_re_deriving_tolerances_changes_no_students_numbers(tmp_path):
+    """The sampler judges draws by constraints.bands of the file: a different measured table (every
+    band doubled, as a re-derivation might) leaves every student's values and draws as they were."""
+    text = open(EX53, encoding="utf-8").read()
+    measured = yaml.safe_load((bank_dir() / "_tolerances.yaml").read_text(encoding="utf-8"))
+    for name, scale in (("same", 1.0), ("doubled", 2.0), ("halved", 0.5)):
+        d = tmp_path / name
+        d.mkdir()
+        (d / "p.yaml").write_text(text, encoding="utf-8")
+        rows = {
+            k: {f: v * scale if f in ("rel", "deg", "floor") else v for f, v in r.items()}
+            for k, r in measured["ch5-ex5-3"].items()
+        }
+        (d / "_tolerances.yaml").write_text(yaml.safe_dump({"ch5-ex5-3": rows}), encoding="utf-8")
+    base = _students(tmp_path / "same" / "p.yaml")
+    assert _students(tmp_path / "doubled" / "p.yaml") == base
+    assert _students(tmp_path / "halved" / "p.yaml") == base
+    stated = load_problem(EX53).constraints.bands
+    assert stated["T"].rel > 0 and stated["aG2_dir"].period == 360.0
+
+
+def test_stated_bands_are_validated(tmp_path):
+    text = open(EX53, encoding="utf-8").read()
+    for bad, where in (
+        ("    T: {rel: 0.025, floor: 0.03}", "    Tx: {rel: 0.025, floor: 0.03}"),
+        ("    T: {rel: 0.025, floor: 0.03}", "    T: {rel: 2.5, floor: 0.03}"),
+        ("    T: {rel: 0.025, floor: 0.03}", "    T: {rel: 0.025, deg: 1}"),
+    ):
+        assert bad in text
+        f = tmp_path / "bad.yaml"
+        f.write_text(text.replace(bad, where), encoding="utf-8")
+        with pytest.raises(GradekitError) as exc:
+            load_problem(f)
+        assert "constraints.bands" in str(
+            exc.value.format_message() if hasattr(exc.value, "format_message") else exc.value
+        )
+
+
+def test_bank_check_fails_an_answer_graded_wider_than_its_draws_were_accepted_with(tmp_path):
+    text = open(EX53, encoding="utf-8").read()
+    old = "- {key: T, of: driver, unit: N*mm"
+    assert old in text
+    f = tmp_path / "wide.yaml"
+    f.write_text(text.replace(old, old + ", tolerance: {rel: 0.6, floor: 0.0}"), encoding="utf-8")
+    r = CliRunner().invoke(main, ["bank", "check", str(f), "--variants", "20", "--class-size", "5"])
+    assert r.exit_code == 1, r.output
+    assert "T: graded at a band wider than the band its draws were accepted with" in r.output
+    assert np.isfinite(load_problem(f).constraints.bands["T"].rel)
