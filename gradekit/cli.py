@@ -180,6 +180,22 @@ def bank_show(problem: str, student: str | None, course: str, salt: str, bank: s
     click.echo(report.as_text(v.result))
 
 
+@bank.command("new")
+@click.argument("kind")
+def bank_new(kind: str) -> None:
+    """Print a commented starter problem for mechanism KIND (save it, edit it, then bank check it)."""
+    from gradekit.bank.starter import starter
+    from gradekit.mechanics.mechanisms import KINDS
+
+    if kind not in KINDS:
+        import difflib
+
+        near = difflib.get_close_matches(kind, list(KINDS), n=1, cutoff=0.5)
+        hint = f" (did you mean {near[0]!r}?)" if near else ""
+        raise click.UsageError(f"expected a mechanism kind among {', '.join(KINDS)}; got {kind!r}{hint}")
+    click.echo(starter(kind), nl=False)
+
+
 @bank.command("check")
 @click.argument("ids", nargs=-1)
 @click.option(
