@@ -313,7 +313,9 @@ def _derived(problem: Problem, d, unit: str, out: Results, sol: Solutions, value
     value = np.broadcast_to(np.asarray(expr.evaluate_many(d.text, env), float), (n,))
     if units.si_unit(unit) == units.si_unit("deg"):
         return wrap(value, problem.angle_range), "deg"
-    return value, units.si_unit(unit)
+    si = units.si_unit(unit)
+    readable = next((q.si for q in quantities.QUANTITIES if q.si and units.si_unit(q.si) == si), si)
+    return value, readable
 
 
 def _neg(x):
@@ -420,3 +422,21 @@ class ResultBatch(Batched):
             for a in self.answer_list
         )
         return Result(pr, {k: float(v[i]) for k, v in self.values.items()}, cases, answers)
+
+
+def published_mismatches(result: Result) -> list[str]:
+    """Every published value (``published:``) the solved published variant *result* does not reproduce
+    within its printed precision (``rel`` of the value, or ``abs`` in its unit), as one line each."""
+    got = {a.key: a for a in result.answers}
+    out = []
+    for pub in result.problem.published:
+        a = got.get(pub.key)
+        if a is None:
+            out.append(f"{pub.key}: published, but no answer has this key")
+            continue
+        value = a.value if a.unit == pub.unit else units.convert(a.value, a.unit, pub.unit)
+        if pub.unit in ("deg", "degree"):
+            value = (value - pub.value + 180.0) % 360.0 - 180.0 + pub.value
+        if not pub.accepts(value):
+            out.append(f"{pub.key}: published {pub.value:g} {pub.unit}, solved {value:.6g} {pub.unit}")
+    return out

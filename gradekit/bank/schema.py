@@ -301,8 +301,14 @@ class _Collector:
         for k in node:
             if k not in required and k not in optional:
                 allowed = ", ".join(sorted(required + optional))
+                near = difflib.get_close_matches(str(k), list(required + optional), n=1, cutoff=0.75)
+                hint = f" (did you mean {near[0]!r}?)" if near else ""
+                if not re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", str(k)):
+                    hint += (" (in a flow mapping {…} a comma ends the value: quote a value that has a comma, "
+                             "e.g. description: \"load, along −x\")")
                 self.err(
-                    node, k, f"{where}.{k}" if where else str(k), f"expected one of {allowed}; got unknown key {k!r}"
+                    node, k, f"{where}.{k}" if where else str(k),
+                    f"expected one of {allowed}; got unknown key {k!r}{hint}",
                 )
         for k in required:
             if k not in node:
@@ -1144,6 +1150,9 @@ def _cases(c: _Collector, data: dict, names: set[str]) -> dict[str, dict[str, Va
             if k not in names:
                 c.err(over, k, f"cases.{name}.{k}", f"expected a parameter name, got {k!r}")
             v = _value(c, over, k, f"cases.{name}.{k}", names)  # a number, or an expression of the parameters
+            if isinstance(v, str) and k in expr.names(v):
+                c.err(over, k, f"cases.{name}.{k}", f"expected an expression of the other parameters (the "
+                      f"override replaces {k}), got {v!r}")
             if v is not None:
                 vals[k] = v
         out[str(name)] = vals
