@@ -123,6 +123,8 @@ def generate(
                 for s, safe in work:
                     done[s.student_id] = _one(s, safe)
                     bar.update(1)
+                if student is None:
+                    _combine(out, asg, [names[s.student_id] for s in students], keys)
             else:
                 chunk = max(1, min(8, len(work) // (4 * jobs)))
                 # spawn, not fork: a forked child inherits typst's and matplotlib's threads mid-lock
@@ -131,8 +133,8 @@ def generate(
                     for d in pool.map(_one_packed, work, chunksize=chunk):
                         done[d.student_id] = d
                         bar.update(1)
-            if student is None:
-                _combine(out, asg, [names[s.student_id] for s in students], keys)
+                    if student is None:  # the two combined PDFs side by side in the workers
+                        _combine(out, asg, [names[s.student_id] for s in students], keys, pool)
         # key.csv and keys.json always cover the whole class, in roster order
         write_csv(out / "key.csv", KEY_HEADER, [_key_row(e) for e in class_entries])
         frozen_text = frozen.dumps(class_entries)
@@ -383,8 +385,12 @@ def _combine(out: Path, asg: Assignment, safes: list[str], keys: bool, pool=None
     ]
     if keys:
         tasks.append(("keys.pdf", [out / "keys" / f"{s}.pdf" for s in safes], f"{asg.course} {asg.title}: worked keys"))
-    for name, parts, title in tasks:
-        _concatenate(out / name, parts, title, asg.course)
+    if pool is None:
+        for name, parts, title in tasks:
+            _concatenate(out / name, parts, title, asg.course)
+    else:
+        for f in [pool.submit(_concatenate, out / name, parts, title, asg.course) for name, parts, title in tasks]:
+            f.result()
 
 
 def _concatenate(target: Path, parts: list[Path], title: str, author: str) -> None:
