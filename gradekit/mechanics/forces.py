@@ -168,6 +168,10 @@ class Solution:
     virtual_work_driver: float
     virtual_work_residual: float
     condition_number: float
+    # the assembled equilibrium system A·x + B = 0 (rows: ΣFx, ΣFy, ΣM about the body's origin per
+    # body; columns: two per joint in joint order, then the driver; B: one column per group)
+    matrix: np.ndarray | None = field(default=None, repr=False, compare=False)
+    rhs: np.ndarray | None = field(default=None, repr=False, compare=False)
 
     @property
     def driver(self) -> float:
@@ -258,6 +262,8 @@ class Solutions(Batched):
     conditioning: Conditioning
     refused: Refusals
     ill_conditioned: np.ndarray
+    matrix: np.ndarray | None = field(default=None, repr=False, compare=False)  # (N, m, m): A of A·x + B = 0
+    rhs: np.ndarray | None = field(default=None, repr=False, compare=False)  # (N, m, G): B, one column per group
 
     @property
     def condition_number(self) -> np.ndarray:
@@ -297,6 +303,8 @@ class Solutions(Batched):
             float(self.virtual_work_driver[i]),
             float(self.virtual_work_residual[i]),
             self.conditioning.at(i),
+            None if self.matrix is None else self.matrix[i],
+            None if self.rhs is None else self.rhs[i],
         )
 
 
@@ -564,7 +572,7 @@ def solve_many(link: Linkage, an: Analysis, virtual: Linkage | None = None) -> S
             load_level = load_level / scale
         denom = np.maximum.reduce([np.abs(q), vw_scale, load_level, np.full(n, 1e-300)])
         residual = np.abs(vw_driver - q) / denom
-    return Solutions(link, an, group_names, X, total, states, vw_driver, residual, cond, refused, ill)
+    return Solutions(link, an, group_names, X, total, states, vw_driver, residual, cond, refused, ill, A, B)
 
 
 def _at(x, i: int) -> float:
