@@ -23,12 +23,23 @@ from gradekit.quantities import BY_NAME as Q
 
 @dataclass
 class CaseResult:
-    """The solution of one case (position) of a problem, with its flat named results in SI."""
+    """The solution of one case (position) of a problem, with its flat named results in SI.
+
+    ``solution`` (the linkage, forces and free-body data of this one variant) is made on first
+    use from *make* when given: keys and grading read ``results`` only.
+    """
 
     name: str | None
     values: dict[str, float]
-    solution: Solution
-    results: dict[str, tuple[float, str]] = field(default_factory=dict)
+    solution_: Solution | None = None
+    results: Mapping = field(default_factory=dict)
+    make: object = field(default=None, repr=False, compare=False)
+
+    @property
+    def solution(self) -> Solution:
+        if self.solution_ is None:
+            self.solution_ = self.make()
+        return self.solution_
 
 
 class Answers(list):
@@ -400,8 +411,9 @@ class ResultBatch(Batched):
             CaseResult(
                 c.name,
                 {k: float(v[i]) for k, v in c.values.items()},
-                c.solutions.at(i),
+                None,
                 c.results.row(i),
+                lambda sols=c.solutions: sols.at(i),
             )
             for c in self.cases
         ]
