@@ -14,7 +14,7 @@ import numpy as np
 
 from gradekit import quantities, units
 from gradekit.bank import expr
-from gradekit.bank.schema import DEFINED, Problem
+from gradekit.bank.model import DEFINED, Problem
 from gradekit.errors import ConditioningError, GeometryError
 from gradekit.mechanics.forces import Solution, Solutions, frame_reaction, spot_point
 from gradekit.mechanics.model import Batched, Refusals

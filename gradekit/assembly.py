@@ -13,7 +13,7 @@ import numpy as np
 
 from gradekit import units
 from gradekit.bank import expr
-from gradekit.bank.schema import Problem, Value
+from gradekit.bank.model import Problem, Value
 from gradekit.errors import ProblemError
 from gradekit.mechanics.mechanisms import KINDS, Motion, build_many
 from gradekit.mechanics.model import Analysis, Linkage, Load, MassProps, MotionLoad, Spot

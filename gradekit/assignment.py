@@ -15,8 +15,9 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 
 from gradekit import __version__, frozen
+from gradekit.bank.model import Problem
 from gradekit.bank.registry import load_bank
-from gradekit.bank.schema import Problem, _Collector, _tolerance
+from gradekit.bank.schema import _Collector, _tolerance
 from gradekit.bank.yamlfile import load
 from gradekit.errors import ErrorList, GradekitError, ProblemError
 from gradekit.keys import KeyEntry, Tolerance

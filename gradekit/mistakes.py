@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from gradekit import units
-from gradekit.bank.schema import Problem
+from gradekit.bank.model import Problem
 from gradekit.errors import GradekitError
 from gradekit.keys import Mistake
 from gradekit.pipeline import ResultBatch, solve_many

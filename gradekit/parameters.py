@@ -11,7 +11,7 @@ import math
 import numpy as np
 
 from gradekit.bank import expr
-from gradekit.bank.schema import Parameter, Problem, order
+from gradekit.bank.model import Parameter, Problem, order
 from gradekit.errors import ProblemError
 from gradekit.mechanics.model import Refusals
 

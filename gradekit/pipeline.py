@@ -26,7 +26,7 @@ from gradekit.answers import (  # noqa: F401 (the pipeline's records, re-exporte
     flat_results,
 )
 from gradekit.assembly import SI, Context, build_analysis, build_linkage, length_formatter  # noqa: F401
-from gradekit.bank.schema import Problem
+from gradekit.bank.model import Problem
 from gradekit.errors import ProblemError
 from gradekit.mechanics import forces
 from gradekit.mechanics.model import Refusals

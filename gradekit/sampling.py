@@ -22,7 +22,7 @@ import numpy as np
 from gradekit import units
 from gradekit.assembly import Context
 from gradekit.bank import expr
-from gradekit.bank.schema import Parameter, Problem
+from gradekit.bank.model import Parameter, Problem
 from gradekit.errors import GradekitError, SamplingError
 from gradekit.mechanics.forces import VW_LIMIT
 from gradekit.mechanics.mechanisms import KINDS

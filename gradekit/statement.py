@@ -15,7 +15,7 @@ from jinja2 import nodes
 from jinja2.sandbox import ImmutableSandboxedEnvironment
 
 from gradekit import units
-from gradekit.bank.schema import Problem
+from gradekit.bank.model import Problem
 from gradekit.errors import ProblemError
 from gradekit.report import fmt
 

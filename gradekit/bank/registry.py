@@ -4,7 +4,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from gradekit.bank.schema import Problem, load_problem
+from gradekit.bank.model import Problem
+from gradekit.bank.schema import load_problem
 from gradekit.errors import ErrorList, GradekitError, ProblemError
 from gradekit.resources import resource_dir
 
