@@ -168,6 +168,7 @@ def grade(
     bank: str | Path | None = None,
     recompute_keys: bool = False,
     warn=None,
+    progress=None,
 ):
     """What ``gradekit grade`` does: grade every submission against the class's keys and write
     grades, LMS exports, feedback and the report into *out*. Returns the batch result.
@@ -175,7 +176,8 @@ def grade(
     With a *manifest*, the keys are those `generate` froze beside it (``keys.json``): nothing is
     re-sampled, and a later change of the bank, the tolerance table or gradekit changes no grade.
     *recompute_keys* grades against keys recomputed from the current bank instead (with the
-    manifest's re-draws). *warn* receives each warning line; ignored when None.
+    manifest's re-draws). *warn* receives each warning line; ignored when None. *progress* is
+    called with (problems done, problems) while keys are derived for the class.
     """
     from gradekit.assignment import check_manifest, class_keys, frozen_keys, load_assignment, redraws_from_manifest
     from gradekit.grading.batch import grade_batch
@@ -207,7 +209,14 @@ def grade(
                 f"{', '.join(missing[:5])}{'…' if len(missing) > 5 else ''}); their keys are computed now")
             keys += class_keys(asg, missing, redraws)[0]
     else:
-        keys, _ = class_keys(asg, ids, redraws)
+        done = []
+
+        def step(label: str) -> None:
+            done.append(label)
+            if progress is not None:
+                progress(len(done), len(asg.items))
+
+        keys, _ = class_keys(asg, ids, redraws, progress=step)
     titles = {it.label: f"{it.label}: {it.problem.title}" for it in asg.items}
     return grade_batch(
         keys, students, Path(submissions), Path(out), assignment_title=asg.title, reveal=reveal, problem_titles=titles,

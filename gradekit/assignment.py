@@ -338,6 +338,7 @@ def class_keys(
     redraws: dict[str, dict[str, int]] | None = None,
     with_mistakes: bool = True,
     need_keys: bool = True,
+    progress=None,
 ) -> tuple[list[KeyEntry], dict[str, dict[str, Variant]]]:
     """Every student's variants and key entries, no two students alike within an item.
 
@@ -346,6 +347,7 @@ def class_keys(
         student_ids: the roster's ids, in roster order (later students are re-drawn on a clash).
         redraws: ``{student: {label: redraw}}`` from a manifest, to reproduce generation exactly.
         with_mistakes: re-solve the catalogued mistakes for diagnosis.
+        progress: called with each item's label once its whole class is drawn and solved.
 
     Returns:
         (key entries, ``{student: {label: Variant}}``).
@@ -362,6 +364,8 @@ def class_keys(
             raise ProblemError(exc.format_message(), path=asg.path, field=f"problems.{item.label}") from None
         for s, v in per.items():
             variants[s][item.label] = v
+        if progress is not None:
+            progress(item.label)
     if not need_keys:
         return [], variants
     keys = [

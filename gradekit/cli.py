@@ -251,9 +251,22 @@ def grade(
     """Grade every submission in SUBMISSIONS against keys recomputed from ASSIGNMENT and ROSTER."""
     from gradekit import api
 
+    bar = None
+
+    def progress(done: int, total: int) -> None:  # keys derived for the class, problem by problem
+        nonlocal bar
+        if not sys.stderr.isatty():
+            return
+        if bar is None:
+            bar = click.progressbar(length=total, label="deriving keys", file=sys.stderr)
+            bar.__enter__()
+        bar.update(1)
+        if done == total:
+            bar.__exit__(None, None, None)
+
     res = api.grade(
         assignment, roster, submissions, out, manifest=manifest, reveal=reveal, bank=bank,
-        recompute_keys=recompute_keys, warn=lambda note: log.warning("warning: %s", note),
+        recompute_keys=recompute_keys, warn=lambda note: log.warning("warning: %s", note), progress=progress,
     )
     log.info("graded %d of %d students; %d integrity flag(s); results in %s", res.graded, len(res.grades),
              len(res.flags), out)

@@ -139,3 +139,20 @@ def test_the_assignments_feedback_choice_reaches_the_students_files(course):
     assert r.returncode == 0, r.stderr
     feedback = (course / "g5" / "feedback" / "1002.md").read_text(encoding="utf-8")
     assert "too high, within twice the tolerance" in feedback
+
+
+def test_every_roster_student_is_graded_once_and_keys_derived_with_progress(course):
+    """Without a manifest the keys are derived for the class, problem by problem (reported to the
+    progress callback); grades.csv has every roster student exactly once, submission or not."""
+    import gradekit
+
+    roster = course / "roster4.csv"
+    roster.write_text("student_id,name\n1001,A\n1002,B\n1003,C\n1004,D\n", encoding="utf-8")
+    seen = []
+    res = gradekit.grade(course / "hw.yaml", roster, course / "subs", course / "g6",
+                         progress=lambda done, total: seen.append((done, total)))
+    assert seen == [(1, 1)]
+    with open(course / "g6" / "grades.csv", newline="", encoding="utf-8") as f:
+        ids = [r["student_id"] for r in csv.DictReader(f)]
+    assert sorted(ids) == ["1001", "1002", "1003", "1004"]
+    assert res.graded == 3
