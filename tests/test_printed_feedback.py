@@ -16,7 +16,7 @@ from click.testing import CliRunner
 
 from gradekit.cli import main
 from gradekit.grading import grade_batch
-from gradekit.keys import KeyEntry, Tolerance
+from gradekit.keys import KeyEntry, Mistake, Tolerance
 from gradekit.roster import Student
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -191,3 +191,76 @@ def test_band_hint_says_how_far_in_tolerances_never_the_amount():
         "p1.F": "too high, within twice the tolerance",  # 3 % off, ±2 %
         "p1.T": "too high, 2 to 10 times the tolerance away",  # 5 % off, ±2 %
     }
+
+
+# Each slip below is a fixed transformation of the key: naming it would let a student compute the key
+# from their own answer (−x, x/1000, the other component). A mistake of method (static answer to a
+# dynamic problem, inertia torque or gravity left out) needs the left-out part computed: it may be named.
+_SLIPS = {
+    "p1.T": ("-2", "N*m", "sign flipped"),  # key 2 N·m
+    "p1.M": ("3000", "N*m", "×1000 unit slip"),  # key 3 N·m
+    "p1.Fx": ("40", "N", "x-y-swapped"),  # key 30 N, Fy = 40 N
+    "p1.Fy": ("50", "N", "magnitude-for-component"),  # key 40 N, |F| = 50 N
+}
+
+
+def _method_keys(sid: str) -> list[KeyEntry]:
+    inertia = Mistake("static-answer", "a static answer to a dynamic problem (inertia left out)", 80.0)
+    gravity = Mistake("no-gravity", "gravity (the weights) left out", 7.0)
+    swapped = Mistake("x-y-swapped", "the x and y components swapped", 40.0)
+    as_mag = Mistake("magnitude-for-component", "the magnitude given for a component", 50.0)
+    return [
+        KeyEntry(sid, "p1", "p1.F", 100.0, "N", REL, 1, "force, magnitude", mistakes=(inertia,)),
+        KeyEntry(sid, "p1", "p1.W", 10.0, "N", REL, 1, "weight share", mistakes=(gravity,)),
+        KeyEntry(sid, "p1", "p1.T", 2.0, "N*m", REL, 1, "torque", "counterclockwise positive"),
+        KeyEntry(sid, "p1", "p1.M", 3.0, "N*m", REL, 1, "moment"),
+        KeyEntry(sid, "p1", "p1.Fx", 30.0, "N", REL, 1, "force, x", mistakes=(swapped, as_mag)),
+        KeyEntry(sid, "p1", "p1.Fy", 40.0, "N", REL, 1, "force, y", mistakes=(as_mag,)),
+    ]
+
+
+@pytest.fixture(scope="module")
+def slipped(tmp_path_factory):
+    base = tmp_path_factory.mktemp("slips")
+    subs = base / "subs"
+    subs.mkdir()
+    rows = [("p1.F", "80", "N"), ("p1.W", "7", "N"), *((k, v, u) for k, (v, u, _) in _SLIPS.items())]
+    _write(subs, "s1", rows)
+    students = [Student("s1", "Sam Slip", "s1@x.edu")]
+    outs = {}
+    for reveal in (False, True):
+        outs[reveal] = base / f"out_{reveal}"
+        grade_batch(_method_keys("s1"), students, subs, outs[reveal], assignment_title="HW", reveal=reveal)
+    return outs
+
+
+def _likely(text: str) -> dict[str, str]:
+    return {line.split("|")[1].strip(): line.split("|")[6].strip() for line in text.splitlines()
+            if line.startswith("| p1.")}
+
+
+def test_without_reveal_only_mistakes_of_method_are_named(slipped):
+    md = (slipped[False] / "feedback" / "s1.md").read_text(encoding="utf-8")
+    html = (slipped[False] / "feedback" / "s1.html").read_text(encoding="utf-8")
+    likely = _likely(md)
+    assert likely["p1.F"].startswith("static-answer: a static answer to a dynamic problem")
+    assert likely["p1.W"].startswith("no-gravity: gravity")
+    for key in _SLIPS:  # every slip reads the same generic hint: it says nothing of the key
+        assert likely[key] == "check the sign convention, the units and the component asked", key
+    for text in (md, html):
+        for _, _, name in _SLIPS.values():
+            assert name not in text
+        for word in ("sign is reversed", "1000 times", "components swapped", "magnitude given"):
+            assert word not in text
+        assert "names only a mistake of method" in text  # the feedback says why the rest is unnamed
+    report = (slipped[False] / "report.md").read_text(encoding="utf-8")
+    assert "sign flipped (1)" in report  # the instructor still sees every diagnosis
+
+
+def test_with_reveal_every_diagnosis_is_named(slipped):
+    md = (slipped[True] / "feedback" / "s1.md").read_text(encoding="utf-8")
+    likely = _likely(md)
+    assert likely["p1.F"].startswith("static-answer:")
+    for key, (_, _, name) in _SLIPS.items():
+        assert likely[key].startswith(name + ":"), (key, likely[key])
+    assert "names only a mistake of method" not in md

@@ -14,6 +14,15 @@ from gradekit.units import factor
 
 _DEG = 180.0 / math.pi
 
+METHOD_MISTAKES = frozenset({"static-answer", "no-inertia-torque", "no-gravity"})
+"""Catalogued mistakes of method, which feedback without ``--reveal`` may name.
+
+Naming one tells a student what their method left out (the inertia, the inertia torque, gravity),
+not their key: they still have to compute the part they left out. Every other catalogued mistake
+(a sign flip, a ×1000 unit slip, degrees for radians, x and y swapped, the magnitude given for a
+component) is a fixed transformation of the key, so naming it would hand the student the key.
+"""
+
 
 def generic_mistakes(entry: KeyEntry) -> tuple[Mistake, ...]:
     """Mistakes that need no re-solve: a sign flip, a ×1000 prefix slip, degrees for radians.
@@ -50,7 +59,10 @@ class AnswerResult:
 
     ``value`` is the answer in the key's unit (None when missing or unreadable); ``rel_error``
     is |x − v| / |v| (None when v = 0 or no value); ``message`` says why an answer scored
-    nothing without being wrong (missing, unreadable, wrong kind of unit).
+    nothing without being wrong (missing, unreadable, wrong kind of unit). ``diagnosis`` is the
+    first catalogued mistake that explains a wrong answer (for the instructor, and for feedback
+    with ``--reveal``); ``method_diagnosis`` the first mistake of method (`METHOD_MISTAKES`) that
+    does, the only one feedback without ``--reveal`` names.
     """
 
     entry: KeyEntry
@@ -63,6 +75,7 @@ class AnswerResult:
     diagnosis: Mistake | None = None
     message: str = ""
     error: float | None = None  # answer − key in the key's unit, wrapped at 360° for an angle
+    method_diagnosis: Mistake | None = None
 
     @property
     def angle(self) -> bool:
@@ -111,13 +124,16 @@ def is_angle(entry: KeyEntry) -> bool:
     return bool(entry.tolerance.period) or unit in ("deg", "degree", "degrees", "°", "rad", "radian", "radians")
 
 
-def diagnose(entry: KeyEntry, value: float) -> Mistake | None:
+def diagnose(entry: KeyEntry, value: float, *, method_only: bool = False) -> Mistake | None:
     """The first catalogued mistake whose value the entry's tolerance accepts *value* around.
 
-    The entry's own (re-solved) mistakes come first, then `generic_mistakes` not already named.
+    The entry's own (re-solved) mistakes come first, then `generic_mistakes` not already named;
+    with *method_only*, only the mistakes of method (`METHOD_MISTAKES`).
     """
     named = {m.name for m in entry.mistakes}
     for mistake in (*entry.mistakes, *(m for m in generic_mistakes(entry) if m.name not in named)):
+        if method_only and mistake.name not in METHOD_MISTAKES:
+            continue
         if math.isfinite(mistake.value) and entry.tolerance.accepts(value, mistake.value):
             return mistake
     return None
@@ -153,9 +169,14 @@ def compare(entry: KeyEntry, answer: Answer | None) -> AnswerResult:
         error = (error + period / 2) % period - period / 2
     abs_error = abs(error)
     rel_error = abs_error / abs(entry.value) if entry.value and not is_angle(entry) else None
-    diagnosis = None if correct else diagnose(entry, value)
+    diagnosis = method = None
+    if not correct:
+        diagnosis = diagnose(entry, value)
+        method = diagnosis if diagnosis is None or diagnosis.name in METHOD_MISTAKES else (
+            diagnose(entry, value, method_only=True))
     points = entry.points if correct else 0.0
-    return AnswerResult(entry, answer, value, correct, points, rel_error, abs_error, diagnosis, error=error)
+    return AnswerResult(entry, answer, value, correct, points, rel_error, abs_error, diagnosis,
+                        error=error, method_diagnosis=method)
 
 
 def grade_student(

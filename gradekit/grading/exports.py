@@ -130,7 +130,7 @@ def _answer_cells(r: AnswerResult, reveal: bool, hint: str) -> dict[str, str]:
     else:
         verdict = "wrong"
     off = _off(r, unit, reveal, hint)
-    diagnosis = f"{r.diagnosis.name}: {r.diagnosis.description}" if r.diagnosis else ""
+    diagnosis = _likely(r, reveal, verdict == "wrong")
     return {
         "key": r.entry.key,
         "read": read,
@@ -141,6 +141,27 @@ def _answer_cells(r: AnswerResult, reveal: bool, hint: str) -> dict[str, str]:
         "points": f"{fmt(r.points)}/{fmt(r.entry.points)}",
         "correct": f"{fmt(r.entry.value, 6)} {unit} ({r.entry.tolerance.describe()})" if reveal else "",
     }
+
+
+GENERIC_HINT = "check the sign convention, the units and the component asked"
+UNNAMED_NOTE = (
+    "Likely mistake names only a mistake of method (a static answer to a dynamic problem, the inertia "
+    "torque or gravity left out); any other wrong answer reads \"" + GENERIC_HINT + "\", since naming a "
+    "slip of sign, unit or component would give your key away."
+)
+
+
+def _likely(r: AnswerResult, reveal: bool, wrong: bool) -> str:
+    """The Likely mistake cell: any catalogued mistake with *reveal*; without, a mistake of method
+    (`METHOD_MISTAKES`) or, for every other wrong answer alike, `GENERIC_HINT`.
+
+    A sign flip, a unit slip, x and y swapped or the magnitude for a component is a fixed
+    transformation of the key: naming it would let the student compute their key from their answer.
+    """
+    m = r.diagnosis if reveal else r.method_diagnosis
+    if m is not None:
+        return f"{m.name}: {m.description}"
+    return GENERIC_HINT if wrong and not reveal else ""
 
 
 HINTS = ("direction", "band")  # what feedback without --reveal says about a wrong answer
@@ -213,6 +234,8 @@ def feedback_markdown(
         out += ["No submission was found for you.", ""]
     else:
         out += [f"Graded file: {_md_cell(grade.submission.path)}", ""]
+        if not reveal:
+            out += [_md_cell(UNNAMED_NOTE), ""]
     for problem in grade.problems:
         out += [
             f"## {_md_cell(titles.get(problem.problem, problem.problem))}: "
@@ -260,6 +283,8 @@ def feedback_html(
         out.append("<p>No submission was found for you.</p>")
     else:
         out.append(f"<p>Graded file: <code>{e(grade.submission.path)}</code></p>")
+        if not reveal:
+            out.append(f"<p>{e(UNNAMED_NOTE)}</p>")
     for problem in grade.problems:
         out.append(
             f"<h2>{e(titles.get(problem.problem, problem.problem))}: "
