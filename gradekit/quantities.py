@@ -24,12 +24,13 @@ class Quantity:
     brackets: str  # what goes in [..]: "i,j" (two link labels), "k" (a link label), "P" (a point), "" (none)
     si: str
     vector: bool
-    kind: str  # force, torque, kinematic, length, angle (vector components of forces: force-component)
+    kind: str  # force, torque, kinematic, length, angle (vector components of forces: force-component);
+    # "" where the answer's unit decides (the driver is a torque or a force; a parameter is anything)
     means: str
 
 
 QUANTITIES: tuple[Quantity, ...] = (
-    Quantity("driver", "", "N*m", False, "torque", "the driving torque (or force, for a slider driver)"),
+    Quantity("driver", "", "N*m", False, "", "the driving torque (or force, for a slider driver)"),
     Quantity("transmission", "", "deg", False, "angle", "the smallest acute transmission angle"),
     Quantity("F", "i,j", "N", True, "force", "the force of link i on link j at their joint"),
     Quantity("M", "i,j", "N*m", False, "torque", "the couple of link i on link j at a sliding joint"),
@@ -43,7 +44,7 @@ QUANTITIES: tuple[Quantity, ...] = (
     Quantity("theta", "k", "deg", False, "angle", "the angle of link k, CCW from +x"),
     Quantity("Ci", "k", "N*m", False, "torque", "the inertia couple −I·α of link k"),
     Quantity("h", "k", "m", False, "length", "the offset I·α/(m·a_G) of link k's equivalent inertia force"),
-    Quantity("param", "name", "", False, "length", "a parameter's own value (in its unit)"),
+    Quantity("param", "name", "", False, "", "a parameter's own value (in its unit)"),
     Quantity("r", "P", "m", True, "length", "the position of point P from the problem's origin"),
     Quantity(
         "shaking", "", "N", True, "force",
@@ -76,7 +77,8 @@ class Asked:
 
     @property
     def kind(self) -> str:
-        """The answer kind: vector components of forces are ``force-component``; angles ``angle``."""
+        """The answer kind: vector components of forces are ``force-component``; angles ``angle``;
+        "" where the answer's unit decides."""
         if self.component == "angle":
             return "angle"
         if self.quantity.kind == "force" and self.component in ("x", "y"):

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import functools
 
-from gradekit import units
+from gradekit import quantities, units
 from gradekit.errors import GradekitError
 from gradekit.keys import Tolerance
 
@@ -21,7 +21,14 @@ SECTION = "_kind_defaults"
 
 
 def answer_kind(of: str, unit: str) -> str:
-    """The kind of an answer: angle, torque, force, force-component, kinematic or length."""
+    """The kind of an answer: angle, torque, force, force-component, kinematic or length.
+
+    The quantity table (`gradekit.quantities`) says it; where it leaves it to the unit (the driver,
+    a parameter, a derived expression), the unit does.
+    """
+    asked = quantities.parse(of)
+    if asked is not None and asked.kind:
+        return asked.kind
     si = units.si_unit(unit)
     if si == units.si_unit("deg"):
         return "angle"
