@@ -10,6 +10,7 @@ import numpy as np
 
 from gradekit import units
 from gradekit.assignment import Assignment, Item, keys_for
+from gradekit.documents import steps
 from gradekit.documents.typeset import Typ, num, paragraphs, text
 from gradekit.mechanics.model import GROUND, Prismatic
 from gradekit.pipeline import CaseResult, Result
@@ -261,7 +262,10 @@ def _case(res: Result, case: CaseResult) -> dict:
         "name": case.name or "",
         "kinematics": kin,
         "inertia": inertia,
-        "equations": _equations(res, case),
+        "steps": _steps(res, case, display_unit(p, "N*m" if link.driver.kind == "torque" else "N")),
+        "force_unit": p.units["force"],
+        "torque_unit": p.units["torque"],
+        "length_unit": p.units["length"],
         "forces": forces,
         "driver": driver,
         "groups": groups,
@@ -302,84 +306,20 @@ def _m(s: str) -> str:
     return '"' + s.replace("\\", "\\\\").replace('"', '\\"') + '"'
 
 
-def _symbol(p, f, body: str, link) -> tuple[str, str]:
-    """The math symbol of a force acting on *body*: stem and subscript."""
-    lab = p.label
-    if f.kind in ("pin", "normal"):
-        j = next((j for j in link.joints if j.name == f.name), None)
-        if j is not None:
-            ends = (j.guide, j.block) if isinstance(j, Prismatic) else (j.a, j.b)
-            other = ends[0] if ends[1] == body else ends[1]
-            return ("N" if f.kind == "normal" else "F"), _m(lab(other) + lab(body))
-        return "F", _m(f.name)
-    if f.kind == "gravity":
-        return "W", _m(lab(body))
-    if f.kind == "inertia":
-        return "F", "i " + _m(lab(body))
-    if f.kind == "driver":
-        return "P", _m(lab(body))
-    return _m(f.name), ""
+def _steps(res: Result, case: CaseResult, driver_unit: str) -> dict:
+    """The route of one case: kinematics, inertia, equilibrium, the system or the construction, the sum.
 
-
-def _component(stem: str, sub: str, axis: str) -> str:
-    return f"{stem}_({sub} {axis})" if sub else f"{stem}_{axis}"
-
-
-def _whole(stem: str, sub: str) -> str:
-    return f"{stem}_({sub})" if sub else stem
-
-
-def _terms(symbols: list[str], values: list[float], scale: float = 0.0) -> tuple[str, str]:
-    """*scale*: the largest value of the same kind in the whole case (a zero's round-off is below 1e-12 of it)."""
-    sym = " + ".join(symbols) if symbols else "0"
-    big = max((abs(v) for v in values), default=0.0)
-    values = [0.0 if abs(v) <= max(1e-9 * big, 1e-12 * scale) else v for v in values]  # round-off, not a term
-    parts = []
-    for i, v in enumerate(values):
-        s = num(abs(v), 4)
-        if i == 0:
-            parts.append(("- " if v < 0 else "") + s)
-        else:
-            parts.append(("- " if v < 0 else "+ ") + s)
-    return sym, " ".join(parts) if parts else "0"
-
-
-def _equations(res: Result, case: CaseResult) -> list[dict]:
-    """ΣFx = 0, ΣFy = 0, ΣM = 0 of every moving body with the solved numbers (display units)."""
+    Only what the problem needs: velocities and accelerations for inertia or when asked, inertia for
+    a dynamic problem, the assembled system for an analytical one, the construction for a graphical one.
+    """
     p = res.problem
     sol = case.solution
-    link = sol.linkage
-    fu, tu, lu = p.units["force"], p.units["torque"], p.units["length"]
-    kf, kt = units.factor("N", fu), units.factor("N*m", tu)
-    out = []
-    moving = [m for b, m in sol.total.members.items() if b != GROUND]
-    f_scale = kf * max((float(np.max(np.abs(f.vector))) for m in moving for f in m.forces), default=0.0)
-    m_scale = f_scale * kt / kf * max((float(np.max(np.abs(f.point))) for m in moving for f in m.forces), default=0.0)
-    for body, member in sol.total.members.items():
-        if body == GROUND:
-            continue
-        origin = link.bodies[body].origin.pos()
-        pname = _point_at(link, origin)
-        sx, vx, sy, vy, sm, vm = [], [], [], [], [], []
-        for f in member.forces:
-            stem, sub = _symbol(p, f, body, link)
-            sx.append(_component(stem, sub, "x"))
-            sy.append(_component(stem, sub, "y"))
-            vx.append(float(f.vector[0]) * kf)
-            vy.append(float(f.vector[1]) * kf)
-            rr = f.point - origin
-            mom = float(rr[0] * f.vector[1] - rr[1] * f.vector[0])
-            if abs(mom) > 1e-12 * max(1.0, float(np.hypot(*f.vector))):
-                sm.append(f"M({_whole(stem, sub)})")
-                vm.append(mom * kt)
-        for name, c in member.couples:
-            sm.append("T" if name == "driver" else f"M_({_m(name)})")
-            vm.append(float(c) * kt)
-        eqs = []
-        for head, syms, vals, scale in (("sum F_x", sx, vx, f_scale), ("sum F_y", sy, vy, f_scale),
-                                        (f"sum M_({_m(p.point(pname) or 'G')})", sm, vm, m_scale)):
-            sym, numbers = _terms(syms, vals, scale)
-            eqs.append(Typ(f"${head} = {sym} = {numbers} = 0$"))
-        out.append({"body": p.label(body), "name": body, "point": p.point(pname) if pname else "",
-                    "force_unit": fu, "torque_unit": tu, "length_unit": lu, "lines": eqs})
-    return out
+    eq = steps.equilibrium(p, sol)
+    return {
+        "kinematics": steps.kinematics(p, sol),
+        "inertia": steps.inertia(p, sol) if p.analysis == "dynamic" else [],
+        "equilibrium": eq["links"],
+        "matrix": eq["matrix"] if p.method == "analytical" else None,
+        "construction": steps.construction(p, sol) if p.method == "graphical" else [],
+        "superposition": steps.superposition(p, sol, driver_unit),
+    }

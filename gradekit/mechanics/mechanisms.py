@@ -271,6 +271,8 @@ def fourbar_quick_return(p: dict, m: Motion, branch: int, fmt: Fmt, bad: Refusal
 
 
 Bars = dict[str, tuple[tuple[str, str], ...]]
+Segment = tuple[str, str, str]
+Loop = tuple[tuple[Segment, ...], tuple[Segment, ...]]
 
 
 @dataclass(frozen=True)
@@ -307,12 +309,25 @@ class Kind:
     example: dict[str, float] = field(default_factory=dict)  # SI geometry that assembles (starter problems)
     about: str = ""  # what the kind is, its points, and where offsets are measured from
     branch: str = ""  # what branch +1 (open) and -1 (crossed) choose
+    # the loop-closure equations a worked key writes: each loop is (left chain, right chain) of
+    # segments (from point, to point, the body the segment turns with; a segment whose length
+    # changes slides along that body), left sum of vectors = right sum
+    closure: tuple[Loop, ...] = ()
 
 
 _POS = {"x_O2": 0.0, "y_O2": 0.0}
 _CRANK = {"crank": (("O2", "A"),)}
 _FOURBAR_BARS = {**_CRANK, "coupler": (("A", "B"),), "rocker": (("O4", "B"),)}
 _SLOTTED_BARS = {**_CRANK, "lever": (("O4", "C"),)}
+_FOURBAR_LOOP: Loop = ((("O2", "A", "crank"), ("A", "B", "coupler")), (("O2", "O4", GROUND), ("O4", "B", "rocker")))
+_SLOTTED_LOOP: Loop = ((("O2", "A", "crank"),), (("O2", "O4", GROUND), ("O4", "A", "lever")))
+_RAM_LOOP: Loop = ((("O4", "C", "{carrier}"), ("C", "D", "link")), (("O4", "D", GROUND),))
+
+
+def _ram_loop(carrier: str) -> Loop:
+    return tuple(tuple((a, b, c.format(carrier=carrier)) for a, b, c in side) for side in _RAM_LOOP)  # type: ignore[return-value]
+
+
 _DIMS = {
     "crank": ("O2", "A"),
     "coupler": ("A", "B"),
@@ -353,6 +368,7 @@ KINDS: dict[str, Kind] = {
         bars=_FOURBAR_BARS,
         dimensions=_dims("crank", "coupler", "rocker", "frame"),
         loop=("crank", "coupler", "rocker", "frame"),
+        closure=(_FOURBAR_LOOP,),
         example={"crank": 0.05, "coupler": 0.15, "rocker": 0.12, "frame": 0.14},
         about="Crank O2A, coupler AB and rocker O4B; the frame O2O4 has length `frame` at `frame_angle` from +x "
         "(O2 at (x_O2, y_O2)).",
@@ -370,6 +386,7 @@ KINDS: dict[str, Kind] = {
         bars={**_CRANK, "rod": (("A", "B"),)},
         dimensions=_dims("crank", "rod"),
         dead_centre=("O2", "A", "B"),
+        closure=(((("O2", "A", "crank"), ("A", "B", "rod")), (("O2", "B", GROUND),)),),
         example={"crank": 0.05, "rod": 0.2},
         about="Crank O2A, connecting rod AB and slider B. The slide line runs at `slide_angle` from +x; `offset` "
         "is its distance from O2, measured along the slide axis' left normal (for a horizontal slide, "
@@ -386,6 +403,7 @@ KINDS: dict[str, Kind] = {
         bars=_SLOTTED_BARS,
         slotted="lever",
         dimensions=_dims("crank", "frame", "lever"),
+        closure=(_SLOTTED_LOOP,),
         example={"crank": 0.1, "frame": 0.2, "lever": 0.4},
         about="Crank O2A; block A slides in the slotted lever O4C (C at `lever` from O4 along O4→A). The lever "
         "pivot O4 is at `frame` from O2 at `frame_angle` (-90°: below O2).",
@@ -402,6 +420,7 @@ KINDS: dict[str, Kind] = {
             bars={**_SLOTTED_BARS, "link": (("C", "D"),)},
             slotted="lever",
             dimensions=_dims("crank", "frame", "lever", "link"),
+            closure=(_SLOTTED_LOOP, _ram_loop("lever")),
             example=(
                 {"crank": 0.1, "frame": 0.05, "lever": 0.15, "link": 0.25, "ram_offset": 0.05}
                 if name == "whitworth"
@@ -428,6 +447,7 @@ KINDS: dict[str, Kind] = {
         bars={**_FOURBAR_BARS, "rocker": (("O4", "B"), ("O4", "C")), "link": (("C", "D"),)},
         dimensions=_dims("crank", "coupler", "rocker", "frame", "arm", "link"),
         loop=("crank", "coupler", "rocker", "frame"),
+        closure=(_FOURBAR_LOOP, _ram_loop("rocker")),
         example={"crank": 0.05, "coupler": 0.15, "rocker": 0.12, "frame": 0.14, "arm": 0.2, "link": 0.2,
                  "ram_offset": 0.25},
         about="A crank-rocker four-bar (as fourbar) whose rocker, extended to C at `arm` from O4 along O4→B, "
