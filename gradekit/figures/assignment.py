@@ -211,7 +211,7 @@ def _build(result: Result, case: str | None, k_paper: float | None) -> Canvas:
             sp = specs.get(name)
             txt = f"{name} = {show_value(pr, values, sp.torque)}" if sp and isinstance(sp.torque, str) \
                 and sp.torque in pr.parameters else f"{name} = {torque_text(pr, tq)}"
-            cv.label(txt, c + np.array([0, 20.0]), VERMILION, clear=3.0)
+            cv.label(txt, arc_anchors(c, 20.0), VERMILION, clear=3.0)
     # the unknown driving torque / force: drawn positive (CCW / along the axis), named, no value
     if "torque" in show:
         drv = link.driver
@@ -219,7 +219,7 @@ def _build(result: Result, case: str | None, k_paper: float | None) -> Canvas:
         if drv.kind == "torque":
             c = T(link.bodies[drv.body].origin.pos())
             torque_arc(cv, c, 15.0, 1.0, BLUE, "driver")
-            cv.label(f"{key} (ccw +)", c + np.array([0.0, 15.0]), BLUE, clear=3.0)
+            cv.label(f"{key} (ccw +)", arc_anchors(c, 15.0), BLUE, clear=3.0)
         else:
             j = next(j for j in link.joints if j.name == drv.joint)
             u = np.array([math.cos(float(j.axis.v)), math.sin(float(j.axis.v))])
@@ -239,7 +239,7 @@ def _build(result: Result, case: str | None, k_paper: float | None) -> Canvas:
         name = pr.inputs.get("theta")
         txt = (given(pr, values, name, "θ") if isinstance(name, str) and name in pr.parameters
                else f"θ = {fmt(math.degrees(t))}°")
-        am = o2 + r_ang * np.array([math.cos(t / 2), math.sin(t / 2)])
+        am = [o2 + r_ang * np.array([math.cos(t * q), math.sin(t * q)]) for q in (0.5, 0.35, 0.65, 0.2, 0.8)]
         cv.label(txt, am, GREEN, clear=2.0, prefer=np.array([math.cos(t / 2), math.sin(t / 2)]))
 
     # speeds and accelerations given on the input link
@@ -254,7 +254,7 @@ def _build(result: Result, case: str | None, k_paper: float | None) -> Canvas:
             v = sign * values[name]
             a0 = th + 0.6
             torque_arc(cv, o2, r, v if v else 1.0, PURPLE, f"given-{key}", start=a0, sweep=1.3)
-            tip = o2 + r * np.array([math.cos(a0 + 0.65), math.sin(a0 + 0.65)])
+            tip = [o2 + r * np.array([math.cos(a0 + q), math.sin(a0 + q)]) for q in (0.65, 0.3, 1.0)]
             cv.label(given(pr, values, name, sym), tip, PURPLE, clear=3.0,
                      prefer=np.array([math.cos(a0 + 0.65), math.sin(a0 + 0.65)]))
 
@@ -326,11 +326,18 @@ def _build(result: Result, case: str | None, k_paper: float | None) -> Canvas:
             txt = f"{f.name} = {show_value(pr, values, sp.magnitude)}"
             if isinstance(sp.angle, str) and sp.angle in pr.parameters and not sp.relative_angle:
                 txt += f" at {show_value(pr, values, sp.angle)}"
-        cv.label(txt, [tail, (tail + head) / 2], VERMILION, clear=3.0, prefer=tail - head)
+        cv.label(txt, [tail + (head - tail) * q for q in (0.0, 0.5, 0.25, 0.75)], VERMILION, clear=3.0,
+                 prefer=tail - head)
 
     if true_scale and k_paper:
         scale_note(cv, pr, k_paper, s, biggest)
     return cv
+
+
+def arc_anchors(c: np.ndarray, r: float) -> list[np.ndarray]:
+    """Points of a `torque_arc` (over the top) a label may stand next to: the top first."""
+    return [c + r * np.array([math.cos(math.radians(a)), math.sin(math.radians(a))])
+            for a in (90.0, 50.0, 130.0, 10.0, 170.0, 210.0, -30.0)]
 
 
 def torque_arc(cv: Canvas, c: np.ndarray, r: float, sign: float, colour: str, gid: str,

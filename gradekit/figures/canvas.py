@@ -53,6 +53,10 @@ def text_size(text: str, size: float = SIZE) -> tuple[float, float]:
     return w + 1.0, size * LINE_H * len(lines)
 
 
+STEPS = (0.0, 3.0, 6.0, 10.0, 15.0, 21.0, 28.0, 36.0, 46.0, 58.0, 72.0, 90.0)  # stand-offs tried, pt
+LEADER_GAP = 16.0  # a label standing off further than this (pt) gets a leader line to its anchor
+
+
 @dataclass
 class Item:
     """One primitive: kind and its arguments, all coordinates in points."""
@@ -105,6 +109,26 @@ def _hits(S: np.ndarray, boxes: np.ndarray) -> np.ndarray:
     return ok & (t0 <= t1)
 
 
+def _leader_hits(S: np.ndarray, P: np.ndarray, Q: np.ndarray, pad: float = 0.5) -> np.ndarray:
+    """K×N: whether leader P[k]–Q[k] comes within segment n's half width (+ *pad*) of segment n of
+    *S* (x0, y0, x1, y1, half width): crosses or touches it."""
+    a, b, hw = S[None, :, 0:2], S[None, :, 2:4], S[None, :, 4]
+    p, q = P[:, None, :], Q[:, None, :]
+
+    def cross(o, u, v):
+        return (u[..., 0] - o[..., 0]) * (v[..., 1] - o[..., 1]) - (u[..., 1] - o[..., 1]) * (v[..., 0] - o[..., 0])
+
+    def point_seg(x, u, v):
+        d = v - u
+        t = np.clip(((x - u) * d).sum(-1) / np.maximum((d * d).sum(-1), 1e-12), 0.0, 1.0)
+        return np.hypot(*np.moveaxis(x - u - d * t[..., None], -1, 0))
+
+    crossing = (cross(a, b, p) * cross(a, b, q) < 0) & (cross(p, q, a) * cross(p, q, b) < 0)
+    dist = np.minimum(np.minimum(point_seg(p, a, b), point_seg(q, a, b)),
+                      np.minimum(point_seg(a, p, q), point_seg(b, p, q)))
+    return crossing | (dist < hw + pad)
+
+
 def seg_distance(a, b, c, d) -> float:
     """Shortest distance between segments a–b and c–d."""
     a, b, c, d = (np.asarray(v, float) for v in (a, b, c, d))
@@ -130,6 +154,7 @@ class Canvas:
         self.segments: list[tuple[np.ndarray, np.ndarray, float]] = []  # p, q, half width
         self.boxes: list[tuple[float, float, float, float]] = []  # placed labels and solid marks
         self.pending: list[tuple[float, int, tuple, dict]] = []  # labels placed once all lines are in
+        self.placed: list[tuple[str, np.ndarray, np.ndarray, float, float]] = []  # text, anchors, box, penalty, gap
 
     # -- primitives -------------------------------------------------------------------------
     def line(self, pts, color: str = BLACK, lw: float = 1.0, ls: str = "-", gid: str | None = None,
@@ -241,12 +266,15 @@ class Canvas:
             self.put(*args, **kw)
 
     def put(self, s: str, anchors, color: str = BLACK, size: float = SIZE, clear: float = 4.0,
-            prefer=None, gid: str | None = None, steps=(0.0, 5.0, 12.0, 22.0, 36.0, 54.0)) -> np.ndarray:
-        """Place *s* next to the first anchor that has room now; return the text centre.
+            prefer=None, gid: str | None = None, steps=STEPS) -> np.ndarray:
+        """Place *s* next to one of its anchors; return the text centre.
 
         Candidates are boxes touching a circle of radius *clear* (+ step) around each anchor in
-        16 directions, the *prefer* direction (a vector) first; the first candidate that touches
-        nothing wins (nearest step first), else the one with the least overlap.
+        16 directions. The candidate that touches nothing and lies nearest wins (ties: the earlier
+        anchor, then the direction nearest *prefer*); when none is free, the one with the least
+        overlap (a leader across a line costs less than a label on one). A label that has to stand
+        off further than `LEADER_GAP` gets a thin leader line to its anchor, so it is never read as
+        naming something else; a leader through a label or mark, or across a line, is an overlap.
         """
         w, h = text_size(s, size)
         A = np.asarray(anchors, float).reshape(-1, 2)
@@ -261,22 +289,44 @@ class Canvas:
         with np.errstate(divide="ignore"):
             k = np.minimum(np.where(D[:, 0] != 0, w / 2 / np.abs(D[:, 0]), np.inf),
                            np.where(D[:, 1] != 0, h / 2 / np.abs(D[:, 1]), np.inf))
-        best, best_pen = None, math.inf
-        for step in steps:
+        na, nd = len(A), len(D)
+        anchor = np.repeat(np.arange(na), nd)
+        rank = np.tile(np.arange(nd), na)
+        order = 1.5 * anchor + 0.2 * rank  # ties within a stand-off: the earlier anchor, then *prefer*
+        best = None  # (score, centre, box, pen, gap, leader or None)
+        for step in steps:  # nearest first: the first stand-off with a free candidate wins
             r = clear + step
             C = (A[:, None, :] + D[None, :, :] * (r + k)[None, :, None]).reshape(-1, 2)
             boxes = np.c_[C[:, 0] - w / 2, C[:, 1] - h / 2, C[:, 0] + w / 2, C[:, 1] + h / 2]
             pen = self.penalties(boxes)
+            leader = step > LEADER_GAP
+            if leader:  # a leader from the anchor's clear circle to the box must cross nothing either
+                start, end = A[anchor] + D[rank] * clear, A[anchor] + D[rank] * r
+                if self.segments:
+                    S = self._segment_array()
+                    lo, hi = np.minimum(start, end).min(axis=0) - 4.0, np.maximum(start, end).max(axis=0) + 4.0
+                    S = S[np.all(np.maximum(S[:, :2], S[:, 2:4]) > lo, axis=1)
+                          & np.all(np.minimum(S[:, :2], S[:, 2:4]) < hi, axis=1)]
+                    if len(S):
+                        pen += 8.0 * _leader_hits(S, start, end).sum(axis=1)
+                if self.boxes:
+                    pen += 25.0 * _hits(np.c_[start, end, np.full(len(start), 0.5)],
+                                        np.asarray(self.boxes)).sum(axis=0)
             free = np.flatnonzero(pen == 0.0)
+            score = pen + 0.25 * step + 0.02 * (step + order)
+            i = int(free[np.argmin(order[free])]) if len(free) else int(np.argmin(score))
+            if len(free) or best is None or score[i] < best[0]:
+                line = (start[i], end[i]) if leader else None
+                best = (score[i], C[i], boxes[i], float(pen[i]), step, line)
             if len(free):
-                best = C[free[0]]
                 break
-            i = int(np.argmin(pen))
-            if pen[i] + step * 0.5 < best_pen:
-                best, best_pen = C[i], pen[i] + step * 0.5
         assert best is not None
-        self.text(best, s, color, size, gid=gid)
-        return np.asarray(best)
+        _, centre, box, pen_i, gap_i, line = best
+        if line is not None:
+            self.line(list(line), color, 0.5, z=1.8)
+        self.text(centre, s, color, size, gid=gid)
+        self.placed.append((s, A, np.asarray(box), pen_i, float(gap_i)))
+        return np.asarray(centre)
 
     def scale_bar(self, length: float, text: str, gap: float = 12.0, gid: str | None = None) -> float:
         """A bar of *length* points with end ticks and *text*, under the drawing; returns its y."""
@@ -310,12 +360,14 @@ class Canvas:
             it.xy = it.xy + d
         self.segments = [(p + d, q + d, hw) for p, q, hw in self.segments]
         self.boxes = [(b[0] + d[0], b[1] + d[1], b[2] + d[0], b[3] + d[1]) for b in self.boxes]
+        self.placed = [(t, a + d, np.r_[b[:2] + d, b[2:] + d], pen, gap) for t, a, b, pen, gap in self.placed]
 
     def absorb(self, other: Canvas) -> None:
         other.place()
         self.items += other.items
         self.segments += other.segments
         self.boxes += other.boxes
+        self.placed += other.placed
 
 
 def row(panels: list[Canvas], gap: float = 28.0) -> Canvas:
