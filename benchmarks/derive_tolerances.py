@@ -1,13 +1,14 @@
 """Derive the bank's tolerances from the honest-student study and write them down.
 
-    python benchmarks/derive_tolerances.py [--variants 500] [--students 10] [--quick]
+    python benchmarks/derive_tolerances.py [--variants 500] [--students 10]
 
 Runs `benchmarks/tolerance_study.py` on every bank problem (honest work: intermediates rounded to
 3 and to 4 significant figures, and for graphical problems the construction on the printed sheet;
 scored by the grader's own `Tolerance.accepts_many`), chooses per answer the narrowest band whose
-95 % upper bound of the honest false-reject rate is below 0.1 % for every honest model and that
-catches most of the catalogued mistakes, and writes ``problem_bank/_tolerances.yaml``: the
-per-answer bands the bank loader applies wherever a problem gives no explicit ``tolerance:``, and
+95 % upper bound of the honest false-reject rate is below 0.1 % for every honest model (the
+mistakes it then misses are reported in benchmarks/RESULTS.md), and writes
+``problem_bank/_tolerances.yaml``: the per-answer bands the bank loader applies wherever a problem
+gives no explicit ``tolerance:``, and
 ``_kind_defaults``, the per-(method, kind) defaults `gradekit/tolerances.py` reads for answers
 without a row. Re-deriving never changes a student's numbers: the sampler judges draws by the
 bands stated in each problem file (``constraints.bands``), never by this table.

@@ -28,9 +28,9 @@ variant, *K* honest students per model, all solved in batches:
 Scoring uses the grader's own acceptance, `Tolerance.accepts_many` (floor resolved per variant
 from the variant's scale, 360° wrap for angles): one rule measured and applied. The false-reject
 rate is stated with its one-sided 95 % Clopper–Pearson upper bound; `choose` picks per answer the
-tightest band whose upper bound is below 0.1 % for every honest model, and among those the one that
-catches most of its worst mistake. Honest students win: a mistake the chosen band cannot catch
-≥ 99 % of the time is reported as undetectable, never traded for a tighter band.
+narrowest band whose upper bound is below 0.1 % for every honest model. Honest students win: a
+mistake that band cannot catch ≥ 99 % of the time is reported as undetectable, never traded for
+a band that rejects honest work (nor is a wider band chosen to catch it).
 
 Nothing here patches gradekit: the study builds, perturbs and solves the student's linkage through
 gradekit's public pieces (`pipeline.build_linkage`, `build_analysis`, `mechanics.forces.solve_many`,
@@ -47,7 +47,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from gradekit import pipeline, units
-from gradekit.bank.schema import Problem
+from gradekit.bank.model import Problem
 from gradekit.errors import GradekitError
 from gradekit.grading.compare import generic_mistakes
 from gradekit.keys import KeyEntry, Tolerance
@@ -67,9 +67,10 @@ READ_DEG = 0.5
 POLYGON_MM = 150.0  # the largest vector of a polygon is drawn between 60 and 150 mm
 REL_GRID = (
     0.001, 0.002, 0.003, 0.005, 0.0075, 0.01, 0.015, 0.02, 0.025, 0.03, 0.04, 0.05, 0.06, 0.075,
-    0.1, 0.125, 0.15, 0.2, 0.25, 0.3, 0.4, 0.5,
+    0.1, 0.125, 0.15, 0.2, 0.25, 0.3, 0.4, 0.5, 0.75, 1.0,
 )  # fmt: skip
-FLOOR_GRID = (0.0, 0.001, 0.003, 0.01, 0.02, 0.03, 0.05, 0.1, 0.2, 0.3, 0.5)  # floor: a fraction of the variant's scale
+# floor: a fraction of the variant's scale
+FLOOR_GRID = (0.0, 0.001, 0.003, 0.01, 0.02, 0.03, 0.05, 0.1, 0.2, 0.3, 0.5, 0.75, 1.0)
 DEG_GRID = (0.1, 0.2, 0.3, 0.5, 0.75, 1.0, 1.25, 1.5, 2.0, 2.5, 3.0, 4.0, 5.0, 7.5, 10.0, 15.0)
 
 
@@ -560,9 +561,11 @@ def width(a: AnswerData, tol: Tolerance) -> float:
 
 
 def choose(a: AnswerData, method: str) -> Score:
-    """The band for *a*: among the candidates whose false-reject upper bound is below 0.1 % for every
-    honest model, the one catching most of its worst mistake, then the narrowest. When no candidate
-    is honest enough, the loosest (its bound is reported as it is)."""
+    """The band for *a*: the narrowest candidate (median half-width relative to the answer) whose
+    false-reject upper bound is below 0.1 % for every honest model; of equally narrow ones, the one
+    catching most of its worst mistake. Honest students win: a wider band is never chosen to catch a
+    mistake, the mistakes it misses are reported. When no candidate is honest enough, the one with
+    the fewest rejections (its bound is reported as it is)."""
     models = basis(method)
     best: Score | None = None
     best_key: tuple = ()
@@ -570,7 +573,7 @@ def choose(a: AnswerData, method: str) -> Score:
         s = evaluate(a, tol, models)
         if s.worst_bound() >= FALSE_REJECT_MAX:
             continue
-        key = (min(s.worst_detection(), DETECT_MIN), -width(a, tol), s.worst_detection())
+        key = (-width(a, tol), s.worst_detection())
         if best is None or key > best_key:
             best, best_key = s, key
     if best is None:  # too few students to show it: the tightest band with the fewest rejections
