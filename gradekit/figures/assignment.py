@@ -17,6 +17,7 @@ from gradekit.report import fmt
 PT_PER_M = 72.0 / 0.0254  # paper points per metre
 FIT = (300.0, 220.0)  # drawing box of a figure not to scale, in points
 ARROW = (24.0, 52.0)  # shortest and longest force arrow, in points
+CRANK_ROOM, GROW = 70.0, 4 / 3  # a scene whose crank is drawn shorter is drawn up to GROW × larger
 
 
 
@@ -179,6 +180,11 @@ def _build(result: Result, case: str | None, k_paper: float | None) -> Canvas:
     span = np.maximum(hi - lo, 1e-6)
     true_scale = bool(k_paper)
     s = PT_PER_M * k_paper if k_paper else min(FIT[0] / span[0], FIT[1] / span[1], 6 * PT_PER_M)
+    if not k_paper and "O2" in link.points and "A" in link.points:
+        # a crank short beside the rest leaves no room for the labels around it: draw larger
+        crank = float(np.hypot(*(link.points["A"].pos() - link.points["O2"].pos()))) * s
+        if 0 < crank < CRANK_ROOM:
+            s *= min(GROW, CRANK_ROOM / crank)
     centre = (lo + hi) / 2
 
     def T(p):
