@@ -377,8 +377,9 @@ def equilibrium(p, sol) -> dict:
                 if grp.startswith("inertia:") and grp.split(":", 1)[1] == body:
                     couple = float(sol.states[body].inertia_couple) * kt
                 moment = v - couple
+                pure = abs(Bd[r - 1, g]) <= 1e-12 * fscale and abs(Bd[r - 2, g]) <= 1e-12 * fscale
                 if abs(moment) > 1e-12 * fscale:
-                    sym.append(f"+ M_({m(oname)})({gs})")
+                    sym.append(f"+ {gs}" if pure else f"+ M_({m(oname)})({gs})")
                     numeric.append((moment, ""))
                     solved.append(moment)
                 if couple:
@@ -448,7 +449,14 @@ def _signed_coef(terms: list[tuple[float, str]]) -> str:
 # ---------------------------------------------------------------------------------------- graphical
 
 
-def construction(p, sol) -> list[Typ]:
+def construction(p, sol) -> list[dict]:
+    """The graphical method in steps: for a superposition problem, one construction per part."""
+    if len(sol.groups) > 1:
+        return [{"part": _part(p, g), "steps": _construction(p, sol, r)} for g, r in sol.groups.items()]
+    return [{"part": "", "steps": _construction(p, sol, sol.total)}]
+
+
+def _construction(p, sol, group) -> list[Typ]:
     """The graphical method in steps, member by member (two-force members first)."""
     from gradekit.figures.assignment import driver_key
     from gradekit.figures.key import POLY_SIZE, force_name, nice
@@ -456,7 +464,7 @@ def construction(p, sol) -> list[Typ]:
     link = sol.linkage
     nm = Names(p, link)
     fu = p.units["force"]
-    members = {b: mb for b, mb in sol.total.members.items() if b != GROUND}
+    members = {b: mb for b, mb in group.members.items() if b != GROUND}
     # two-force members first (they fix lines of action), then from the output back to the driver
     two_first = [b for b in members if members[b].kind == "two-force"]
     rest = [b for b in reversed(list(members)) if b not in two_first and b != link.driver.body]
@@ -516,6 +524,14 @@ def construction(p, sol) -> list[Typ]:
                     f"lines of action of its unknown forces are not fixed by a two-force member, so its forces come "
                     f"from the equilibrium equations above (or from the links already solved); its polygon then "
                     f"closes as drawn.{bar}"))
+        elif not fs and not mb.couples:
+            out.append(Typ(f"{step}. Link {L} carries no force in this part."))
+        elif mb.kind == "two-forces-and-couple" and knowns:
+            a = knowns[0]
+            c = next(f for f in fs if f is not a)
+            out.append(Typ(f"{step}. Link {L}: two forces and a couple. {fname(a)}{at(a)} is known; {fname(c)} is "
+                           f"equal, opposite and parallel to it, and the couple they form balances the remaining "
+                           f"couple (their size times the distance between their lines of action).{bar}"))
         elif mb.kind == "two-forces-and-couple":
             a, c = fs
             out.append(Typ(f"{step}. Link {L}: two forces and a couple. {fname(a)} and {fname(c)} are equal, "
