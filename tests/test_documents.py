@@ -201,3 +201,18 @@ def test_parallel_keys_are_identical(run, tmp_path):
     other = tmp_path / "out"
     generate(asg, roster, other, jobs=2, progress=False)
     assert _files(other, keys=True) == _files(out, keys=True)
+
+
+def test_key_shows_the_route_only_where_needed(run):
+    """p1 (ch5-ex5-1) is static and graphical, p2 (ch5-ex5-3) dynamic and analytical: each key shows
+    the loop closure and every link's equilibrium, and only its own kind of route."""
+    _, _, out, _ = run
+    names = safe_names(["1001", "../evil"])
+    body = _norm(_pdf_text(out / "keys" / f"{names['1001']}.pdf"))
+    p1, p2 = body.split("p2. ", 1)
+    for part in (p1, p2):
+        assert "Loop closure" in part and "Equilibrium of each link" in part and "Link 1 (moments about" in part
+    assert "Graphical construction" in p1 and "two-force member" in p1
+    assert "Inertia forces and couples" not in p1 and "Velocity" not in p1 and "assembled system" not in p1
+    assert "Inertia forces and couples" in p2 and "Velocity" in p2 and "Acceleration" in p2
+    assert "The assembled system" in p2 and "Graphical construction" not in p2

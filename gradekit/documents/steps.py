@@ -345,7 +345,8 @@ def equilibrium(p, sol) -> dict:
     Bd = B * krow[:, None]
     b = -Bd.sum(axis=1)
     fscale = max(float(np.max(np.abs(Ad[:, :] * x[None, :]))), float(np.max(np.abs(Bd))) if Bd.size else 0.0, 1e-300)
-    arm_u = f"{tu}/{fu}"
+    arm_u = next((L for L in (p.units["length"], "m", "mm", "cm", "in", "ft")
+                  if abs(units.factor(f"{tu}/{fu}", L) - 1.0) < 1e-12), f"{tu}/{fu}")
     links = []
     heads = []
     for k, body in enumerate(bodies):
