@@ -566,22 +566,23 @@ def choose(a: AnswerData, method: str) -> Score:
     catching most of its worst mistake. Honest students win: a wider band is never chosen to catch a
     mistake, the mistakes it misses are reported. When no candidate is honest enough, the one with
     the fewest rejections (its bound is reported as it is)."""
+    cached = a.__dict__.get("_choice")
+    if cached is not None and cached[0] == method:
+        return cached[1]
     models = basis(method)
+    ranked = sorted(((width(a, t), i, t) for i, t in enumerate(candidates(a.kind))), key=lambda x: x[:2])
     best: Score | None = None
-    best_key: tuple = ()
-    for tol in candidates(a.kind):
+    best_w = math.inf
+    for w, _i, tol in ranked:  # narrowest first: the first honest one (and any as narrow) decides
+        if w > best_w:
+            break
         s = evaluate(a, tol, models)
-        if s.worst_bound() >= FALSE_REJECT_MAX:
-            continue
-        key = (-width(a, tol), s.worst_detection())
-        if best is None or key > best_key:
-            best, best_key = s, key
-    if best is None:  # too few students to show it: the tightest band with the fewest rejections
-        for tol in candidates(a.kind):
-            s = evaluate(a, tol, models)
-            key = (-s.worst_bound(), min(s.worst_detection(), DETECT_MIN), -width(a, tol))
-            if best is None or key > best_key:
-                best, best_key = s, key
+        if s.worst_bound() < FALSE_REJECT_MAX and (best is None or s.worst_detection() > best.worst_detection()):
+            best, best_w = s, w
+    if best is None:  # no band honest enough: the one with the fewest rejections, then the narrowest
+        scored = [(evaluate(a, tol, models), w) for w, _i, tol in ranked]
+        best = min(scored, key=lambda sw: (sw[0].worst_bound(), sw[1]))[0]
+    a.__dict__["_choice"] = (method, best)
     return best
 
 
@@ -641,16 +642,20 @@ def kind_defaults(studies: list[Study]) -> dict[tuple[str, str], tuple[Tolerance
     out = {}
     for (method, kind), answers in sorted(pools.items()):
         models = basis(method)
+        ranked = sorted(
+            ((float(np.median([width(a, t) for a in answers])), i, t) for i, t in enumerate(candidates(kind))),
+            key=lambda x: x[:2],
+        )
         best = None
-        for tol in candidates(kind):
+        for _w, _i, tol in ranked:  # narrowest first: the first honest one is the default
             scores = [evaluate(a, tol, models) for a in answers]
             ub = max(upper_bound(sum(s.rejected[m] for s in scores), sum(s.samples[m] for s in scores)) for m in models)
             det = float(np.mean([s.worst_detection() for s in scores]))
-            w = float(np.median([width(a, tol) for a in answers]))
-            rank = (ub < FALSE_REJECT_MAX, -w if ub < FALSE_REJECT_MAX else -ub)
-            if best is None or rank > best[0]:
-                best = (rank, (tol, ub, det))
-        out[(method, kind)] = best[1]
+            if best is None or ub < best[1]:
+                best = (tol, ub, det)
+            if ub < FALSE_REJECT_MAX:
+                break
+        out[(method, kind)] = best
     return out
 
 
