@@ -170,6 +170,7 @@ def test_names_are_the_problems_own():
     for _res, _c, st in _cases("ch5-ex5-3", seeds=(None,)):
         text = " ".join(str(x) for x in st["kinematics"]["closure"])
         text += " ".join(str(ln["symbolic"]) for lk in st["equilibrium"] for ln in lk["lines"])
+        text += st["kinematics"]["branch"]
         assert '"O1B"' in text and '"O3C"' in text
         assert "O2" not in text and "O4" not in text
         assert [lk["body"] for lk in st["equilibrium"]] == ["1", "2", "3"]

@@ -10,6 +10,7 @@ test parses back from a line is what the key prints.
 from __future__ import annotations
 
 import math
+import re
 from types import SimpleNamespace
 
 import numpy as np
@@ -83,6 +84,12 @@ class Names:
 # ---------------------------------------------------------------------------------------- kinematics
 
 
+def _own_names(p, kind) -> str:
+    """The kind's description of its branches, with the problem's own point names."""
+    pattern = r"\b(" + "|".join(sorted(map(re.escape, kind.points), key=len, reverse=True)) + r")\b"
+    return re.sub(pattern, lambda mt: p.point(mt.group(1)), kind.branch)
+
+
 def needs_motion(p) -> bool:
     """Velocities and accelerations are needed: inertia forces, or an answer asks for them."""
     asks = any(a.of.startswith(("omega[", "alpha[", "v[", "a[", "aG[", "vG[")) for a in p.answers)
@@ -136,7 +143,7 @@ def kinematics(p, sol) -> dict:
     for b in link.bodies:
         position.append(Typ(f"${th[b]} = {n(angle[b])} degree$"))
     result = {"closure": closure, "position": position,
-              "branch": f"Branch: {branch}. {kind.branch[0].upper()}{kind.branch[1:]}" if kind.closure else "",
+              "branch": f"{branch}: {_own_names(p, kind)}" if kind.closure else "",
               "velocity": [], "acceleration": [], "centres": [], "slides": False}
     if not needs_motion(p):
         return result
