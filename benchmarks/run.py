@@ -81,10 +81,13 @@ def _generate_md(res: dict) -> str:
             f"| {r['students']} | {r['jobs']} | {'yes' if r['keys'] else 'no'} | {r['seconds']} | "
             f"{r['per_minute']} | {r['target']:g} | {'yes' if r['meets'] else 'NO'} |"
         )
+    marginal = res.get("marginal_per_minute", {})
+    if marginal:
+        rows += ["", "Marginal rate between the two class sizes, (300 − 30) / (t300 − t30), start excluded: "
+                 + "; ".join(f"{k} {v:g} students/min" for k, v in marginal.items()) + "."]
     note = (
-        "One run per configuration (a class of 300 with keys takes minutes). The issue's targets are "
-        "for a class of 300 on this 2-core machine, i.e. with 2 jobs; classes of 30 pay the worker "
-        "start-up (~2 s) and are shown for the trend."
+        "The whole `generate` (class draws and keys, every sheet, answer template and worked key, key.csv, "
+        "keys.json, both combined PDFs, manifest), one run per configuration, 2 jobs on this 2-core machine."
     )
     return "\n".join(rows) + "\n\n" + note
 
