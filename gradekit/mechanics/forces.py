@@ -536,12 +536,18 @@ def solve_many(link: Linkage, an: Analysis, virtual: Linkage | None = None) -> S
         cs[:, couple_cols] = scale[:, None]
         geometry_bad = refused.mask.copy()
         eye = np.eye(nrow, ncol)
-        systems = np.where(geometry_bad[:, None, None], eye, A * rs[:, :, None] * cs[:, None, :])
-        A_safe = np.where(geometry_bad[:, None, None], eye, A)
+        systems = A * rs[:, :, None] * cs[:, None, :]
+        A_safe = A
+        if geometry_bad.any():  # refused variants get an identity, so the batch still factorises
+            systems = np.where(geometry_bad[:, None, None], eye, systems)
+            A_safe = np.where(geometry_bad[:, None, None], eye, A)
         g = len(group_names)
         # One factorisation gives the unknowns of every group and the inverse of the unit-free
         # system (A⁻¹·R⁻¹ = C·S⁻¹ for S = R·A·C), whose norm bounds the condition number.
-        rhs = np.concatenate([B, np.broadcast_to(np.eye(nrow), (n, nrow, nrow)) / rs[:, :, None]], axis=2)
+        rhs = np.zeros((n, nrow, g + nrow))
+        rhs[:, :, :g] = B
+        diag = np.arange(nrow)
+        rhs[:, diag, g + diag] = 1.0 / rs
         try:
             Y = np.linalg.solve(A_safe, rhs)
             cond = Conditioning(systems, geometry_bad, Y[:, :, g:] / cs[:, :, None])
