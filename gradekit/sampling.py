@@ -150,7 +150,7 @@ def check_many(problem: Problem, values: dict, n: int) -> tuple[np.ndarray, Resu
         if c.gradable:
             for a in batch.answer_list:
                 if a.unit != "deg":
-                    reject(ok & (np.abs(a.value) < c.gradable * c.band(a)), "gradable")
+                    reject(ok & (np.abs(a.value) < c.gradable * c.band(a)), f"gradable: {a.key}")
         if c.distinguish:
             found = mistakes_many(batch, values)
             for name, keys in c.distinguish:

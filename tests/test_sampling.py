@@ -109,3 +109,14 @@ def test_distinguish_names_unknown_answers_and_mistakes(tmp_path):
     msg = err.value.format_message()
     assert "constraints.distinguish.no-gravity: expected a list of answer keys among F03, F23, T; got ['T', 'Q']" in msg
     assert "constraints.distinguish.typo: expected one of" in msg
+
+
+def test_a_gradable_failure_names_the_answer_too_small_to_grade(tmp_path):
+    """Every draw rejected because an answer sits too near zero: the error names that answer."""
+    text = open(EX51, encoding="utf-8").read()
+    text = text.replace("  dead_centre_min: 20\n", "  dead_centre_min: 20\n  gradable: 1000\n")
+    f = tmp_path / "g.yaml"
+    f.write_text(text, encoding="utf-8")
+    with pytest.raises(SamplingError) as err:
+        variant(load_problem(f), course="MEG373", salt="t", student="1", max_draws=5)
+    assert "constraint 'gradable: F03'" in err.value.format_message()
