@@ -95,7 +95,8 @@ def kinds_reference() -> str:
     ]
     for name, k in KINDS.items():
         on = carriers(name)
-        out += [f"## `{name}`", "", k.about, ""]
+        figure = f"![{name}: the starter's mechanism with its default labels](kinds/{name}.svg)"
+        out += [f"## `{name}`", "", k.about, "", figure, ""]
         out += [f"- **bodies** (equilibrium order): {', '.join(k.bodies)} (besides `ground`)"]
         out += ["- **points** (and the bodies each is fixed on): "
                 + "; ".join(f"`{p}` ({', '.join(on[p])})" for p in k.points)]

@@ -61,6 +61,21 @@ def key_figure_svgs(result: Result) -> list[tuple[str, str, bytes]]:
     return out
 
 
+def kind_figure_svg(kind: str) -> bytes:
+    """The scene of `gradekit bank new KIND`'s starter problem: the kind's default point and link
+    labels (docs/kinds/<kind>.svg, which docs/kinds.md shows)."""
+    import tempfile
+
+    from gradekit.bank.schema import load_problem
+    from gradekit.bank.starter import starter
+    from gradekit.sampling import variant
+
+    with tempfile.TemporaryDirectory() as tmp:
+        f = Path(tmp) / f"{kind}.yaml"
+        f.write_text(starter(kind), encoding="utf-8")
+        return scene_svg(variant(load_problem(f)).result)
+
+
 def to_svg(fig) -> bytes:
     """SVG bytes of *fig* (text kept as text), identical for identical figures; closes *fig*."""
     buf = io.BytesIO()
