@@ -184,3 +184,20 @@ def test_the_reference_lists_every_result_of_the_table():
     text = (ROOT / "docs" / "authoring.md").read_text(encoding="utf-8")
     for q in QUANTITIES:
         assert f"`{q.name}" in text, q.name
+
+
+def test_an_unquoted_bracket_and_comma_in_a_flow_mapping_gets_a_hint(tmp_path):
+    """`{key: F12, of: F[1,2].mag}` is not valid YAML: the error says where and what to quote."""
+    from gradekit.bank.schema import load_problem
+    from gradekit.errors import GradekitError
+
+    text = _starter().replace('of: "F[1,2].mag"', "of: F[1,2].mag")
+    assert "of: F[1,2].mag" in text
+    f = tmp_path / "p.yaml"
+    f.write_text(text, encoding="utf-8")
+    line = 1 + text.splitlines().index(next(ln for ln in text.splitlines() if "of: F[1,2].mag" in ln))
+    with pytest.raises(GradekitError) as err:
+        load_problem(f)
+    msg = err.value.format_message()
+    assert msg.startswith(f"{f}:{line}: expected valid YAML")
+    assert 'quote a value such as "F[1,2].mag"' in msg

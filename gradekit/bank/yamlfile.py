@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import yaml
@@ -140,7 +141,21 @@ def load(path: Path | str) -> LineDict:
         mark = getattr(exc, "problem_mark", None)
         line = mark.line + 1 if mark else None
         problem = getattr(exc, "problem", None) or str(exc)
-        raise ProblemError(f"expected valid YAML, got {problem}", path=str(path), line=line) from None
+        raise ProblemError(
+            f"expected valid YAML, got {problem}{_flow_hint(text, mark)}", path=str(path), line=line
+        ) from None
     if not isinstance(data, dict):
         raise ProblemError(f"expected a mapping at the top, got {type(data).__name__}", path=str(path), line=1)
     return data
+
+
+def _flow_hint(text: str, mark) -> str:
+    """A hint for the commonest slip in a flow mapping: a value with a comma or brackets unquoted."""
+    if mark is None:
+        return ""
+    lines = text.splitlines()
+    line = lines[mark.line] if mark.line < len(lines) else ""
+    if "{" in line and re.search(r":\s*[^\s\"'{\[][^,}]*\[[^\]]*,", line):
+        return (" (in a flow mapping {…} a comma ends the value and brackets start a list: quote a value "
+                "such as \"F[1,2].mag\")")
+    return ""
