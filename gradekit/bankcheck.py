@@ -1,6 +1,7 @@
 """`gradekit bank check`: draw many variants of each problem and check every one of them (above the bank:
 it uses sampling and reporting, which the bank itself never imports).
 
+The published variant reproduces every printed value (``published:``) at its printed precision.
 For each variant: it assembles, solves, passes the virtual-work check, stays inside the problem's
 conditioning bounds, its key grades itself 100 % and every answer moved just outside its
 tolerance band grades 0. Prints per problem the rejection rate, answer ranges, worst transmission
@@ -14,13 +15,14 @@ from collections.abc import Callable, Iterable
 
 import numpy as np
 
+from gradekit.answers import published_mismatches
 from gradekit.bank.registry import load_bank
 from gradekit.errors import GradekitError
 from gradekit.keys import Tolerance
 from gradekit.mechanics.forces import VW_LIMIT
 from gradekit.mistakes import mistakes_many
 from gradekit.report import fmt
-from gradekit.sampling import class_variants, derive_seed, sample_many
+from gradekit.sampling import class_variants, derive_seed, sample_many, variant
 
 
 def _self_grade_failures(key: str, tol: Tolerance, values: np.ndarray, scales: np.ndarray) -> list[str]:
@@ -123,6 +125,11 @@ def check_problem(problem, n: int, class_size: int, echo: Callable[[str], None])
         for key, (_ratio, _broken, _hidden, zero) in wide.items()
         if zero
     )
+    if problem.published:  # the published variant reproduces every printed value at its precision
+        try:
+            failures.extend(f"published: {m}" for m in published_mismatches(variant(problem).result))
+        except GradekitError as exc:
+            failures.append(f"published variant: {exc.format_message()}")
     distinct = 1
     if randoms:
         try:

@@ -201,3 +201,18 @@ def test_an_unquoted_bracket_and_comma_in_a_flow_mapping_gets_a_hint(tmp_path):
     msg = err.value.format_message()
     assert msg.startswith(f"{f}:{line}: expected valid YAML")
     assert 'quote a value such as "F[1,2].mag"' in msg
+
+
+def test_bank_check_reports_a_published_value_the_solver_does_not_reproduce(tmp_path):
+    from click.testing import CliRunner
+
+    from gradekit.cli import main
+
+    text = (ROOT / "problem_bank" / "ch5_ex5_1_slider_crank_static.yaml").read_text(encoding="utf-8")
+    old = "T: {value: -1.120, unit: N*m, rel: 0.003"
+    assert old in text
+    f = tmp_path / "p.yaml"
+    f.write_text(text.replace(old, "T: {value: -1.320, unit: N*m, rel: 0.003"), encoding="utf-8")
+    r = CliRunner().invoke(main, ["bank", "check", str(f), "--variants", "3", "--class-size", "3"])
+    assert r.exit_code == 1
+    assert "published: T: published -1.32 N*m, solved -1.118" in r.output  # Example 5.1: T = -1.118 N·m
