@@ -35,8 +35,7 @@ from gradekit.parameters import fill, fill_many, published_values, round_display
 
 def _solve_case(problem: Problem, values: dict, n: int, name: str | None, bad: Refusals) -> CaseBatch:
     link = build_linkage(problem, values, n=n)
-    link.refused.mask |= bad.mask  # variants refused before the build stay refused, with their reason
-    link.refused._checks[:0] = bad._checks
+    link.refused.merge(bad, first=True)  # variants refused before the build stay refused, with their reason
     speed = np.broadcast_to(np.asarray(link.bodies[link.input_body].angle.d, float), (n,))
     virtual = None if speed.all() else build_linkage(problem, values, True, n)
     sols = forces.solve_many(link, build_analysis(problem, values, n), virtual)
@@ -65,8 +64,7 @@ def solve_many(problem: Problem, values: dict, n: int | None = None) -> ResultBa
         cases = [_solve_case(problem, full, n, None, bad)]
     refused = bad.copy()
     for c in cases:
-        refused.mask |= c.solutions.refused.mask
-        refused._checks += c.solutions.refused._checks
+        refused.merge(c.solutions.refused)
     answers = []
     for spec in problem.answers:
         for case in cases:

@@ -106,6 +106,11 @@ class Refusals:
                 return message(i)
         return ""
 
+    def merge(self, other: Refusals, first: bool = False) -> None:
+        """Refuse what *other* refuses too, with its reasons (before this one's when *first*)."""
+        self.mask |= other.mask
+        self._checks = other._checks + self._checks if first else self._checks + other._checks
+
     def copy(self) -> Refusals:
         out = Refusals(self.n)
         out.mask = self.mask.copy()
