@@ -373,7 +373,7 @@ def _slug(text: str) -> str:
 def _combine(out: Path, asg: Assignment, safes: list[str], keys: bool, pool=None) -> None:
     """``assignments.pdf`` and ``keys.pdf``: every student's compiled PDF, concatenated in roster order.
 
-    Concatenating the finished PDFs (pypdf) instead of typesetting one document that includes every
+    Concatenating the finished PDFs (pikepdf) instead of typesetting one document that includes every
     body avoids compiling the class twice: 1.3 s instead of ~10 s for 60 keys, and half the size.
     """
     tasks = [
@@ -394,19 +394,48 @@ def _combine(out: Path, asg: Assignment, safes: list[str], keys: bool, pool=None
 
 
 def _concatenate(target: Path, parts: list[Path], title: str, author: str) -> None:
+    """*parts* one after the other in *target*, each starting on an odd page (duplex), with every
+    part's bookmarks kept under it (pikepdf: qpdf copies pages without parsing them in Python,
+    about ten times faster than pypdf on a class of keys)."""
     import io
 
-    import pypdf
+    import pikepdf
 
-    writer = pypdf.PdfWriter()
-    for p in parts:
-        if len(writer.pages) % 2:  # every student's document starts on an odd page (duplex)
-            writer.add_blank_page()
-        writer.append(str(p))
-    writer.add_metadata({"/Title": title, "/Author": author})
+    out = pikepdf.Pdf.new()
+    with out.open_outline() as outline:
+        for path in parts:
+            with pikepdf.Pdf.open(path) as src:
+                if len(out.pages) % 2:
+                    box = src.pages[0].mediabox
+                    out.add_blank_page(page_size=(float(box[2]), float(box[3])))
+                offset = len(out.pages)
+                out.pages.extend(src.pages)
+                index = {page.obj.objgen: i for i, page in enumerate(src.pages)}
+                with src.open_outline() as theirs:
+                    outline.root.extend(_outline_copy(item, index, offset) for item in theirs.root)
+    out.docinfo["/Title"] = title
+    out.docinfo["/Author"] = author
     buf = io.BytesIO()
-    writer.write(buf)
+    out.save(buf, deterministic_id=True)  # the same parts give the same bytes
     atomic_write(target, buf.getvalue())
+
+
+def _outline_copy(item, index: dict, offset: int):
+    """A bookmark of a part (and its children) pointing at the same spot in the combined PDF."""
+    import pikepdf
+
+    dest = item.destination
+    if isinstance(dest, pikepdf.Array) and len(dest) >= 2 and str(dest[1]) == "/XYZ":
+        left, top, zoom = ([None if x is None else float(x) for x in list(dest)[2:5]] + [None] * 3)[:3]
+        new = pikepdf.OutlineItem(item.title, offset + index.get(dest[0].objgen, 0), "XYZ",
+                                  left=left, top=top, zoom=zoom or None)
+    elif isinstance(dest, pikepdf.Array) and len(dest) >= 1:
+        new = pikepdf.OutlineItem(item.title, offset + index.get(dest[0].objgen, 0))
+    else:  # a named destination or an action: the part's first page
+        new = pikepdf.OutlineItem(item.title, offset)
+    new.is_closed = item.is_closed
+    new.children.extend(_outline_copy(child, index, offset) for child in item.children)
+    return new
 
 
 __all__ = ["generate", "GenerateSummary"]
