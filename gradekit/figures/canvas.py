@@ -55,6 +55,9 @@ def text_size(text: str, size: float = SIZE) -> tuple[float, float]:
 
 STEPS = (0.0, 3.0, 6.0, 10.0, 15.0, 21.0, 28.0, 36.0, 46.0, 58.0, 72.0, 90.0)  # stand-offs tried, pt
 LEADER_GAP = 16.0  # a label standing off further than this (pt) gets a leader line to its anchor
+_DIRECTIONS = np.c_[np.cos(np.arange(16) * (math.pi / 8)), np.sin(np.arange(16) * (math.pi / 8))]
+_DIRECTIONS[np.abs(_DIRECTIONS) < 1e-12] = 0.0  # the 16 directions a label is tried in, exact on the axes
+_DIRECTIONS.flags.writeable = False
 
 
 @dataclass
@@ -226,7 +229,7 @@ class Canvas:
         pen = np.zeros(len(boxes))
         lo, hi = boxes[:, :2].min(axis=0) - 8.0, boxes[:, 2:].max(axis=0) + 8.0
         if self.boxes:
-            B = np.asarray(self.boxes)
+            B = self._box_array()
             near = (B[:, 2] > lo[0]) & (B[:, 0] < hi[0]) & (B[:, 3] > lo[1]) & (B[:, 1] < hi[1])
             B = B[near]
             if len(B):
@@ -245,10 +248,19 @@ class Canvas:
         return pen
 
     def _segment_array(self) -> np.ndarray:
-        if getattr(self, "_seg_cache", (None, -1))[1] != len(self.segments):
-            arr = np.array([(p[0], p[1], q[0], q[1], hw) for p, q, hw in self.segments], float)
-            self._seg_cache = (arr, len(self.segments))
+        """`segments` as an N×5 array, rebuilt only when the list changed (appended or replaced)."""
+        key = (id(self.segments), len(self.segments))
+        if getattr(self, "_seg_cache", (None, None))[1] != key:
+            arr = np.array([(p[0], p[1], q[0], q[1], hw) for p, q, hw in self.segments], float).reshape(-1, 5)
+            self._seg_cache = (arr, key)
         return self._seg_cache[0]
+
+    def _box_array(self) -> np.ndarray:
+        """`boxes` as an N×4 array, rebuilt only when the list changed (appended or replaced)."""
+        key = (id(self.boxes), len(self.boxes))
+        if getattr(self, "_box_cache", (None, None))[1] != key:
+            self._box_cache = (np.array(self.boxes, float).reshape(-1, 4), key)
+        return self._box_cache[0]
 
     def label(self, s: str, anchors, color: str = BLACK, size: float = SIZE, clear: float = 4.0,
               prefer=None, gid: str | None = None, priority: float = 0.0) -> None:
@@ -275,9 +287,7 @@ class Canvas:
         """
         w, h = text_size(s, size)
         A = np.asarray(anchors, float).reshape(-1, 2)
-        ang = np.arange(16) * (math.pi / 8)
-        D = np.c_[np.cos(ang), np.sin(ang)]
-        D[np.abs(D) < 1e-12] = 0.0
+        D = _DIRECTIONS
         if prefer is not None:
             pv = np.asarray(prefer, float)
             pn = float(np.hypot(*pv))
@@ -317,7 +327,7 @@ class Canvas:
                         pen += 8.0 * _leader_hits(S, start, end).sum(axis=1).reshape(pen.shape)
                 if self.boxes:
                     seg = np.column_stack([start, end, np.full(len(start), 0.5)])
-                    pen += 25.0 * _hits(seg, np.asarray(self.boxes)).sum(axis=0).reshape(pen.shape)
+                    pen += 25.0 * _hits(seg, self._box_array()).sum(axis=0).reshape(pen.shape)
                 start, end = start.reshape(C.shape), end.reshape(C.shape)
             for g, step in enumerate(group):
                 free = np.flatnonzero(pen[g] == 0.0)
@@ -372,6 +382,7 @@ class Canvas:
         self.segments = [(p + d, q + d, hw) for p, q, hw in self.segments]
         self.boxes = [(b[0] + d[0], b[1] + d[1], b[2] + d[0], b[3] + d[1]) for b in self.boxes]
         self.placed = [(t, a + d, np.r_[b[:2] + d, b[2:] + d], pen, gap) for t, a, b, pen, gap in self.placed]
+        self._seg_cache = self._box_cache = (None, None)  # new lists, same lengths: rebuild
 
     def absorb(self, other: Canvas) -> None:
         other.place()
