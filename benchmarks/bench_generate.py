@@ -2,8 +2,9 @@
 
 Run: ``python benchmarks/bench_generate.py [--quick]`` (quick: class size 30 only). Each line is
 one configuration: class size, worker processes, whether keys are written, wall time and students
-per minute (combined PDFs, key.csv and manifest included). Targets on a 2-core machine: sheets
-alone >= 450/min, with keys >= 200/min.
+per minute (combined PDFs, key.csv and manifest included). Targets on a 2-core machine, judged on
+the marginal rate between the two class sizes (start excluded): sheets alone >= 450/min, with
+worked keys >= 300/min (issue 13).
 """
 
 from __future__ import annotations
@@ -24,7 +25,7 @@ from gradekit.documents import generate  # noqa: E402
 ASSIGNMENT = ROOT / "examples" / "hw5.yaml"
 NAMES = ["Selam Haile", "Chidi Okafor", "Zoë Łukasiewicz-Núñez", "Ana María Pérez", "Jonas Müller",
          "Mary O'Brien", "Nguyễn Văn An", "Olusegun Adeyemi"]
-TARGETS = {False: 450.0, True: 200.0}
+TARGETS = {False: 450.0, True: 300.0}  # students/min at the margin, 2 jobs
 
 
 def roster(path: Path, n: int) -> Path:
@@ -46,8 +47,7 @@ def measure(n: int, jobs: int, keys: bool) -> dict:
                  for name in ("assignments.pdf", "keys.pdf") if (Path(tmp) / "out" / name).exists()}
     per_min = 60.0 * n / seconds
     return {"students": n, "jobs": jobs, "keys": keys, "seconds": round(seconds, 2),
-            "per_minute": round(per_min, 1), "target": TARGETS[keys], "meets": per_min >= TARGETS[keys],
-            "bytes": sizes}
+            "per_minute": round(per_min, 1), "bytes": sizes}
 
 
 def run(quick: bool) -> dict:
@@ -62,16 +62,17 @@ def run(quick: bool) -> dict:
                 r = measure(n, jobs, keys)
                 results.append(r)
                 print(f"students={n:<4} jobs={jobs} keys={'yes' if keys else 'no ':<3} "
-                      f"{r['seconds']:>7.2f} s  {r['per_minute']:>6.1f} students/min  "
-                      f"(target {r['target']:.0f}: {'met' if r['meets'] else 'NOT met'})", flush=True)
+                      f"{r['seconds']:>7.2f} s  {r['per_minute']:>6.1f} students/min", flush=True)
     marginal = {}
     for keys in (False, True):
         rows = [r for r in results if r["keys"] == keys]
         if len(rows) == 2:
             (a, b) = rows
-            marginal["with keys" if keys else "sheets alone"] = round(
-                60.0 * (b["students"] - a["students"]) / (b["seconds"] - a["seconds"]), 1
-            )
+            rate = 60.0 * (b["students"] - a["students"]) / (b["seconds"] - a["seconds"])
+            marginal["with keys" if keys else "sheets alone"] = {
+                "per_minute": round(rate, 1), "target": TARGETS[keys], "meets": rate >= TARGETS[keys]}
+            print(f"marginal, keys={'yes' if keys else 'no'}: {rate:.1f} students/min "
+                  f"(target {TARGETS[keys]:.0f}: {'met' if rate >= TARGETS[keys] else 'NOT met'})", flush=True)
     return {"cpus": os.cpu_count(), "assignment": str(ASSIGNMENT.relative_to(ROOT)), "results": results,
             "marginal_per_minute": marginal}
 
