@@ -100,7 +100,8 @@ class Result:
         }
 
 
-def _group_label(problem: Problem, group: str) -> str:
+def group_label(problem: Problem, group: str) -> str:
+    """A superposition group as ``@group`` names it: a load's name, ``gravity``, ``inertia[k]``."""
     if group.startswith("inertia:"):
         return f"inertia[{problem.label(group.split(':', 1)[1])}]"
     return group
@@ -205,7 +206,7 @@ def flat_results(problem: Problem, sol: Solutions, values: dict | None = None) -
     out.put("transmission", (arr(link.transmission), Q["transmission"].si))
     groups = {None: sol.total, **{g: sol.x[:, :, k] for k, g in enumerate(sol.group_names)}}
     for gname, x in groups.items():
-        suffix = "" if gname is None else "@" + _group_label(problem, gname)
+        suffix = "" if gname is None else "@" + group_label(problem, gname)
         if gname is not None:
             out.put("driver" + suffix, (x[:, -1], drv_unit))
         for j in link.joints:
@@ -262,7 +263,7 @@ def flat_results(problem: Problem, sol: Solutions, values: dict | None = None) -
         vector(f"a[{P}]", comp(pt, "dd", 0), comp(pt, "dd", 1), Q["a"].si)
         vector(f"r[{P}]", comp(pt, "v", 0, origin), comp(pt, "v", 1, origin), Q["r"].si)
     for gname, x in groups.items():
-        suffix = "" if gname is None else "@" + _group_label(problem, gname)
+        suffix = "" if gname is None else "@" + group_label(problem, gname)
 
         def shaking(x=x):
             return frame_reaction(link, x, np.stack([arr(origin()[0]), arr(origin()[1])], axis=-1))
