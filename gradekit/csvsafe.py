@@ -81,6 +81,23 @@ def atomic_write(path: Path, data: str | bytes, *, encoding: str = "utf-8") -> N
         raise
 
 
+def write_staged(path: Path, data: str | bytes, *, encoding: str = "utf-8") -> None:
+    """Write *data* to *path* in place, for a file inside a `StagedFolder`'s staging folder.
+
+    Nothing there is visible until `StagedFolder.commit` moves it in, so the temporary file and
+    rename of `atomic_write` would only add work (thousands of feedback files per class). The
+    file is private to its owner (mode 0600), as `atomic_write`'s are.
+    """
+    payload = data.encode(encoding) if isinstance(data, str) else data
+    fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC | getattr(os, "O_BINARY", 0), 0o600)
+    try:
+        view = memoryview(payload)
+        while view:
+            view = view[os.write(fd, view):]
+    finally:
+        os.close(fd)
+
+
 def write_csv(
     path: Path,
     header: Sequence[object],

@@ -7,13 +7,12 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-from gradekit.csvsafe import StagedFolder
+from gradekit.csvsafe import StagedFolder, write_staged
 from gradekit.errors import GradekitError
 from gradekit.grading.compare import StudentGrade, grade_student
 from gradekit.grading.exports import (
     _md_cell,
-    feedback_html,
-    feedback_markdown,
+    feedback_pages,
     report_markdown,
     safe_names,
     write_canvas,
@@ -366,8 +365,9 @@ def grade_batch(
         feedback.mkdir()
         for g in grades:
             stem = names[g.student.student_id]
-            write_text(feedback / f"{stem}.md", feedback_markdown(g, titles, assignment_title, reveal, hint))
-            write_text(feedback / f"{stem}.html", feedback_html(g, titles, assignment_title, reveal, hint))
+            md, page = feedback_pages(g, titles, assignment_title, reveal, hint)
+            write_staged(feedback / f"{stem}.md", md)
+            write_staged(feedback / f"{stem}.html", page)
         image = None
         if histogram:
             percents = [g.percent for g in grades if g.submission is not None]

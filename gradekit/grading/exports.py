@@ -96,30 +96,47 @@ def write_moodle(path: Path, grades: Sequence[StudentGrade], assignment_title: s
     write_csv(path, header, rows)
 
 
-_LINES: dict[tuple[int, bool, str], tuple[AnswerResult, dict[str, str]]] = {}
+class _Memo(dict):
+    """A bounded memo of a function of one string: the same units, keys and messages recur in
+    every student's feedback (cleared when full, so a hostile class cannot grow it)."""
+
+    def __init__(self, fn, size: int = 4096) -> None:
+        super().__init__()
+        self.fn = fn
+        self.size = size
+
+    def __missing__(self, key: str) -> str:
+        if len(self) >= self.size:
+            self.clear()
+        value = self[key] = self.fn(key)
+        return value
 
 
-def _answer_lines(r: AnswerResult, reveal: bool, hint: str = "direction") -> dict[str, str]:
-    """The cells of one feedback row, as plain text (the Markdown and the HTML page share them)."""
-    hit = _LINES.get((id(r), reveal, hint))
-    if hit is not None and hit[0] is r:
-        return hit[1]
-    if len(_LINES) > 4096:
-        _LINES.clear()
-    cells = _answer_cells(r, reveal, hint)
-    _LINES[(id(r), reveal, hint)] = (r, cells)
-    return cells
+_PRETTY = _Memo(pretty)
+_POINTS: dict[tuple[float, float], str] = {}
 
 
-def _answer_cells(r: AnswerResult, reveal: bool, hint: str) -> dict[str, str]:
-    unit = pretty(r.entry.unit)
+def _points_cell(earned: float, worth: float) -> str:
+    text = _POINTS.get((earned, worth))
+    if text is None:
+        if len(_POINTS) > 4096:
+            _POINTS.clear()
+        text = _POINTS[(earned, worth)] = f"{fmt(earned)}/{fmt(worth)}"
+    return text
+
+
+def _answer_cells(r: AnswerResult, reveal: bool, hint: str) -> tuple[str, ...]:
+    """The cells of one feedback row as plain text, in `_COLUMNS` order (then the correct answer
+    with *reveal*); the Markdown and the HTML page escape the same cells."""
+    entry, answer = r.entry, r.answer
+    unit = _PRETTY[entry.unit]
     read = ""
-    if r.answer is not None:
-        read = r.answer.raw + (f" [{r.answer.raw_unit}]" if r.answer.raw_unit else "")
-    if r.value is not None and r.answer is not None:
-        given = pretty(r.answer.unit) if r.answer.unit else f"{unit} (no unit given)"
-        parsed = f"{fmt(r.answer.number, 6)} {given}".strip()
-        if r.answer.unit and r.answer.unit != r.entry.unit:
+    if answer is not None:
+        read = answer.raw + (f" [{answer.raw_unit}]" if answer.raw_unit else "")
+    if r.value is not None and answer is not None:
+        given = _PRETTY[answer.unit] if answer.unit else f"{unit} (no unit given)"
+        parsed = f"{fmt(answer.number, 6)} {given}".strip()
+        if answer.unit and answer.unit != entry.unit:
             parsed += f" = {fmt(r.value, 6)} {unit}"
     else:
         parsed = r.message
@@ -129,18 +146,13 @@ def _answer_cells(r: AnswerResult, reveal: bool, hint: str) -> dict[str, str]:
         verdict = "not graded"
     else:
         verdict = "wrong"
-    off = _off(r, unit, reveal, hint)
+    off = _off(r, unit, reveal, hint) if not r.correct and r.error is not None else ""
     diagnosis = _likely(r, reveal, verdict == "wrong")
-    return {
-        "key": r.entry.key,
-        "read": read,
-        "parsed": parsed,
-        "verdict": verdict,
-        "off": off,
-        "diagnosis": diagnosis,
-        "points": f"{fmt(r.points)}/{fmt(r.entry.points)}",
-        "correct": f"{fmt(r.entry.value, 6)} {unit} ({r.entry.tolerance.describe()})" if reveal else "",
-    }
+    points = _points_cell(r.points, entry.points)
+    if reveal:
+        correct = f"{fmt(entry.value, 6)} {unit} ({entry.tolerance.describe()})"
+        return entry.key, read, parsed, verdict, off, diagnosis, points, correct
+    return entry.key, read, parsed, verdict, off, diagnosis, points
 
 
 GENERIC_HINT = "check the sign convention, the units and the component asked"
@@ -209,6 +221,7 @@ _COLUMNS = [
 
 _MD_SPECIAL = re.compile(r"[`*_<>\[\]\\|\n\r]")
 _MD_ESCAPE = re.compile(r"([`*_<>\[\]])")
+_SPECIAL = re.compile(r"[`*_<>\[\]\\|\n\r&\"']")  # a character Markdown or HTML escapes
 
 
 def _md_cell(text: str) -> str:
@@ -218,42 +231,38 @@ def _md_cell(text: str) -> str:
     return _MD_ESCAPE.sub(r"\\\1", text)
 
 
-def feedback_markdown(
-    grade: StudentGrade, titles: Mapping[str, str], assignment_title: str, reveal: bool, hint: str = "direction"
-) -> str:
-    """One student's feedback as Markdown (every cell escaped: students wrote some of it)."""
-    columns = _COLUMNS + ([("correct", "Correct answer")] if reveal else [])
-    s = grade.student
-    out = [
-        f"# {_md_cell(assignment_title)}: feedback for {_md_cell(s.display)} ({_md_cell(s.student_id)})",
-        "",
-        f"**Score: {fmt(grade.total)} / {fmt(grade.max_points)} ({grade.percent:.1f} %)**",
-        "",
-    ]
-    if grade.submission is None:
-        out += ["No submission was found for you.", ""]
+_MD = _Memo(_md_cell)
+_HTML = _Memo(html.escape)
+_CSS_CLASS = {"right": "right", "wrong": "wrong", "not graded": "not"}
+
+
+def _rows(r: AnswerResult, reveal: bool, hint: str) -> tuple[str, str]:
+    """One answer's feedback row as (Markdown table row, HTML table row), every cell escaped.
+
+    Both escapes act character by character, so a cell is escaped in parts: the value a student
+    wrote (nearly always plain) and the bracketed unit (recurring: memoised).
+    """
+    cells = _answer_cells(r, reveal, hint)
+    key, read, rest = cells[0], cells[1], cells[2:]
+    answer = r.answer
+    if answer is not None and answer.raw_unit:  # read is f"{raw} [{raw_unit}]"
+        raw = answer.raw
+        md_raw, html_raw = (raw, raw) if not _SPECIAL.search(raw) else (_md_cell(raw), html.escape(raw))
+        md_read = f"{md_raw} \\[{_MD[answer.raw_unit]}\\]"
+        html_read = f"{html_raw} [{_HTML[answer.raw_unit]}]"
+    elif not _SPECIAL.search(read):
+        md_read = html_read = read
     else:
-        out += [f"Graded file: {_md_cell(grade.submission.path)}", ""]
-        if not reveal:
-            out += [_md_cell(UNNAMED_NOTE), ""]
-    for problem in grade.problems:
-        out += [
-            f"## {_md_cell(titles.get(problem.problem, problem.problem))}: "
-            f"{fmt(problem.points)} / {fmt(problem.max_points)}",
-            "",
-            "| " + " | ".join(title for _, title in columns) + " |",
-            "|" + "---|" * len(columns),
-        ]
-        for r in grade.results:
-            if r.entry.problem == problem.problem:
-                cells = _answer_lines(r, reveal, hint)
-                out.append("| " + " | ".join(_md_cell(cells[k]) for k, _ in columns) + " |")
-        out.append("")
-    if grade.issues:
-        out += ["## Problems reading your file", ""]
-        out += [f"- {_md_cell(str(i))}" for i in grade.issues]
-        out.append("")
-    return "\n".join(out)
+        md_read, html_read = _md_cell(read), html.escape(read)
+    if not _SPECIAL.search("".join(rest)):  # most rows: numbers, units and fixed phrases
+        md_rest = html_rest = rest
+    else:
+        md_rest = tuple(_MD[c] for c in rest)
+        html_rest = tuple(_HTML[c] for c in rest)
+    md = f"| {_MD[key]} | {md_read} | " + " | ".join(md_rest) + " |"
+    page = (f'<tr class="{_CSS_CLASS[cells[3]]}"><td>{_HTML[key]}</td><td>{html_read}</td><td>'
+            + "</td><td>".join(html_rest) + "</td></tr>")
+    return md, page
 
 
 _CSS = (
@@ -263,48 +272,70 @@ _CSS = (
 )
 
 
-def feedback_html(
+def feedback_pages(
     grade: StudentGrade, titles: Mapping[str, str], assignment_title: str, reveal: bool, hint: str = "direction"
-) -> str:
-    """One student's feedback as a standalone HTML page (every text escaped)."""
+) -> tuple[str, str]:
+    """One student's feedback as (Markdown, standalone HTML page), both from one pass over the
+    answers; every text is escaped (students wrote some of it)."""
     e = html.escape
     columns = _COLUMNS + ([("correct", "Correct answer")] if reveal else [])
     s = grade.student
+    score = f"Score: {fmt(grade.total)} / {fmt(grade.max_points)} ({grade.percent:.1f} %)"
     title = f"{assignment_title}: feedback for {s.display} ({s.student_id})"
-    out = [
+    md = [
+        f"# {_md_cell(assignment_title)}: feedback for {_md_cell(s.display)} ({_md_cell(s.student_id)})",
+        "",
+        f"**{score}**",
+        "",
+    ]
+    page = [
         "<!doctype html>",
         '<html><head><meta charset="utf-8">',
         f"<title>{e(title)}</title><style>{_CSS}</style></head><body>",
         f"<h1>{e(title)}</h1>",
-        f"<p><strong>Score: {fmt(grade.total)} / {fmt(grade.max_points)} "
-        f"({grade.percent:.1f} %)</strong></p>",
+        f"<p><strong>{score}</strong></p>",
     ]
     if grade.submission is None:
-        out.append("<p>No submission was found for you.</p>")
+        md += ["No submission was found for you.", ""]
+        page.append("<p>No submission was found for you.</p>")
     else:
-        out.append(f"<p>Graded file: <code>{e(grade.submission.path)}</code></p>")
+        md += [f"Graded file: {_md_cell(grade.submission.path)}", ""]
+        page.append(f"<p>Graded file: <code>{e(grade.submission.path)}</code></p>")
         if not reveal:
-            out.append(f"<p>{e(UNNAMED_NOTE)}</p>")
+            md += [_MD[UNNAMED_NOTE], ""]
+            page.append(f"<p>{_HTML[UNNAMED_NOTE]}</p>")
+    md_head = "| " + " | ".join(t for _, t in columns) + " |"
+    md_rule = "|" + "---|" * len(columns)
+    html_head = "<table><tr>" + "".join(f"<th>{e(t)}</th>" for _, t in columns) + "</tr>"
+    rows: dict[str, list[tuple[str, str]]] = {}
+    for r in grade.results:
+        rows.setdefault(r.entry.problem, []).append(_rows(r, reveal, hint))
     for problem in grade.problems:
-        out.append(
-            f"<h2>{e(titles.get(problem.problem, problem.problem))}: "
-            f"{fmt(problem.points)} / {fmt(problem.max_points)}</h2>"
-        )
-        out.append("<table><tr>" + "".join(f"<th>{e(t)}</th>" for _, t in columns) + "</tr>")
-        for r in grade.results:
-            if r.entry.problem == problem.problem:
-                cells = _answer_lines(r, reveal, hint)
-                css = cells["verdict"].split()[0]
-                out.append(
-                    f'<tr class="{css}">' + "".join(f"<td>{e(cells[k])}</td>" for k, _ in columns) + "</tr>"
-                )
-        out.append("</table>")
+        name = titles.get(problem.problem, problem.problem)
+        earned = f"{fmt(problem.points)} / {fmt(problem.max_points)}"
+        mine = rows.get(problem.problem, [])
+        md += [f"## {_MD[name]}: {earned}", "", md_head, md_rule, *(m for m, _ in mine), ""]
+        page += [f"<h2>{_HTML[name]}: {earned}</h2>", html_head, *(h for _, h in mine), "</table>"]
     if grade.issues:
-        out.append("<h2>Problems reading your file</h2><ul>")
-        out += [f"<li><code>{e(str(i))}</code></li>" for i in grade.issues]
-        out.append("</ul>")
-    out.append("</body></html>")
-    return "\n".join(out)
+        issues = [str(i) for i in grade.issues]
+        md += ["## Problems reading your file", "", *(f"- {_md_cell(i)}" for i in issues), ""]
+        page += ["<h2>Problems reading your file</h2><ul>", *(f"<li><code>{e(i)}</code></li>" for i in issues), "</ul>"]
+    page.append("</body></html>")
+    return "\n".join(md), "\n".join(page)
+
+
+def feedback_markdown(
+    grade: StudentGrade, titles: Mapping[str, str], assignment_title: str, reveal: bool, hint: str = "direction"
+) -> str:
+    """One student's feedback as Markdown (every cell escaped: students wrote some of it)."""
+    return feedback_pages(grade, titles, assignment_title, reveal, hint)[0]
+
+
+def feedback_html(
+    grade: StudentGrade, titles: Mapping[str, str], assignment_title: str, reveal: bool, hint: str = "direction"
+) -> str:
+    """One student's feedback as a standalone HTML page (every text escaped)."""
+    return feedback_pages(grade, titles, assignment_title, reveal, hint)[1]
 
 
 def write_histogram(path: Path, percents: Sequence[float], title: str) -> None:
