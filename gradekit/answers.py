@@ -77,6 +77,8 @@ class Result:
     values: dict[str, float]
     cases: list[CaseResult]
     answers: Answers
+    batch: ResultBatch | None = field(default=None, repr=False, compare=False)  # solved in (row ``index``)
+    index: int = field(default=0, repr=False, compare=False)
 
     @property
     def virtual_work_residual(self) -> float:
@@ -434,7 +436,7 @@ class ResultBatch(Batched):
             )
             for a in self.answer_list
         )
-        return Result(pr, {k: float(v[i]) for k, v in self.values.items()}, cases, answers)
+        return Result(pr, {k: float(v[i]) for k, v in self.values.items()}, cases, answers, self, i)
 
 
 def published_mismatches(result: Result) -> list[str]:

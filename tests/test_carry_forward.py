@@ -233,3 +233,23 @@ def test_feedback_names_the_students_wrong_values():
     assert c.describe() == "consistent with your alpha2 = 480 rad/s² and aG2 = 210000 mm/s²"
     assert c.accepts(-910.0) and not c.accepts(-930.0)
     assert c.accepts(-930.0, Tolerance("relative", 0.05))
+
+
+@pytest.mark.parametrize("pid", DYNAMIC)
+def test_a_class_batch_gives_each_student_what_their_variant_gives_alone(pid):
+    """The plan of a solved batch (stem maps read for every variant at once) carries each row as
+    the same variant solved on its own (a batch of one) does."""
+    p = BANK[pid]
+    vb = gradekit.sample_many(p, range(8))
+    for i in range(len(vb)):
+        v = vb.variant(i)
+        student = _misread(p, v, p.inputs["omega"])
+        submitted = {a.key: a.value for a in student.answers}
+        in_batch = carry.plan(v.result).recompute(submitted)
+        alone = gradekit.solve(p, v.values)
+        assert v.result.batch is not alone.batch
+        assert carry.dependencies(v.result) == carry.dependencies(alone)
+        by_itself = carry.plan(alone).recompute(submitted)
+        assert set(in_batch) == set(by_itself)
+        for k, c in in_batch.items():
+            assert _close(c, by_itself[k].value) and c.used == by_itself[k].used, k
