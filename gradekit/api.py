@@ -179,6 +179,13 @@ def grade(
     manifest's re-draws). *warn* receives each warning line; ignored when None. *progress* is
     called with (problems done, problems) while keys are derived for the class.
     """
+    from gradekit.grading.batch import gc_paused
+
+    with gc_paused():  # the class's keys and answers: see gc_paused
+        return _grade(assignment, roster, submissions, out, manifest, reveal, bank, recompute_keys, warn, progress)
+
+
+def _grade(assignment, roster, submissions, out, manifest, reveal, bank, recompute_keys, warn, progress):
     from gradekit.assignment import check_manifest, class_keys, frozen_keys, load_assignment, redraws_from_manifest
     from gradekit.grading.batch import grade_batch
     from gradekit.roster import read_roster
