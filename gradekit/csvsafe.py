@@ -228,6 +228,30 @@ class StagedFolder:
             return []
         return [ln for ln in text.splitlines()[1:] if ln and not ln.startswith("#")]
 
+    def _staged(self) -> tuple[list[str], list[str]]:
+        """The staged regular files (``/``-separated, relative), and the folders holding only
+        regular files and folders like themselves (shallowest first), which may move in whole."""
+        files: list[str] = []
+        whole: list[str] = []
+
+        def walk(folder: str, rel: str) -> bool:
+            plain, empty = True, True
+            with os.scandir(folder) as entries:
+                for entry in entries:
+                    empty = False
+                    if entry.is_dir(follow_symlinks=False):
+                        plain = walk(entry.path, f"{rel}{entry.name}/") and plain
+                    elif entry.is_file(follow_symlinks=False):
+                        files.append(f"{rel}{entry.name}")
+                    else:  # a symbolic link or special file: never moved
+                        plain = False
+            if plain and not empty and rel:
+                whole.append(rel[:-1])
+            return plain and not empty
+
+        walk(str(self.root), "")
+        return files, sorted(whole, key=lambda d: d.count("/"))
+
     def commit(self, header: str, extra_previous: Sequence[str] = (), retain: Sequence[str] = ()) -> list[Path]:
         """Move every staged file into OUT; return their final paths (see the class docstring).
 
@@ -238,18 +262,28 @@ class StagedFolder:
             retain: prefixes of the previous run's paths to keep even though this run did not
                 write them (outputs this run was asked to leave alone).
         """
-        staged = sorted(
-            p.relative_to(self.root).as_posix() for p in self.root.rglob("*") if p.is_file() and not p.is_symlink()
-        )
+        files, whole = self._staged()
+        staged = sorted(files)
         old = list(dict.fromkeys([*self.previous(), *extra_previous]))
         with _SigintHeld():
             self.out.mkdir(parents=True, exist_ok=True)
             note = "gradekit was interrupted while writing this folder: its files may mix two runs. Run it again.\n"
             atomic_write(self.out / self.INCOMPLETE, note)
+            # a folder OUT does not have yet moves in with one rename (thousands of feedback files)
+            moved = [d for d in whole if not os.path.lexists(self.out / d)]
+            moved = [d for d in moved if not any(d.startswith(f"{m}/") for m in moved)]
+            for d in moved:
+                (self.out / d).parent.mkdir(parents=True, exist_ok=True)
+                os.replace(self.root / d, self.out / d)
+            made: set[str] = set()
             for rel in staged:
-                target = self.out / rel
-                target.parent.mkdir(parents=True, exist_ok=True)
-                os.replace(self.root / rel, target)
+                folder, _, _ = rel.rpartition("/")
+                if any(rel.startswith(f"{m}/") for m in moved):
+                    continue
+                if folder not in made:
+                    (self.out / folder).mkdir(parents=True, exist_ok=True)
+                    made.add(folder)
+                os.replace(self.root / rel, self.out / rel)
             keep = set(staged)
             kept = tuple(retain) if not self.merge else ("",)
             keep |= {rel for rel in old if rel.startswith(kept) and (self.out / rel).is_file()}
