@@ -19,6 +19,7 @@ from __future__ import annotations
 import hashlib
 import json
 from collections.abc import Iterable
+from functools import partial
 
 from gradekit import __version__
 from gradekit.errors import GradekitError
@@ -54,33 +55,32 @@ def dumps(keys: Iterable[KeyEntry]) -> str:
 
 
 def loads(text: str, path: str) -> dict[str, list[KeyEntry]]:
-    """Every student's frozen key entries, ``{student: [KeyEntry, …]}``, from a ``keys.json`` text."""
+    """Every student's frozen key entries, ``{student: [KeyEntry, …]}``, from a ``keys.json`` text.
+
+    What is the same for the class is read once per answer; students whose tolerance resolved to
+    the same absolute floor share one (frozen) `Tolerance`.
+    """
     try:
         doc = json.loads(text)
         if doc.get("format") != FORMAT:
             raise ValueError(f"format {doc.get('format')!r}, expected {FORMAT}")
-        answers, names = doc["answers"], doc["mistakes"]
+        names = doc["mistakes"]
+        shared: dict[str, tuple] = {}
+        for key, a in doc["answers"].items():
+            t = a["tolerance"]
+            make = partial(Tolerance, t["mode"], t["rel"], sigfigs=t["sigfigs"], floor=t["floor"], period=t["period"])
+            shared[key] = (a["problem"], a["unit"], a["points"], a["description"], a["sign"], make, {})
         out: dict[str, list[KeyEntry]] = {}
         for sid, rows in doc["students"].items():
             entries = []
             for key, (value, tol_abs, found) in rows.items():
-                a = answers[key]
-                t = a["tolerance"]
-                tol = Tolerance(t["mode"], t["rel"], tol_abs, t["sigfigs"], t["floor"], t["period"])
-                entries.append(
-                    KeyEntry(
-                        sid,
-                        a["problem"],
-                        key,
-                        float(value),
-                        a["unit"],
-                        tol,
-                        a["points"],
-                        a["description"],
-                        a["sign"],
-                        tuple(Mistake(name, names[name], float(v)) for name, v in found),
-                    )
-                )
+                problem, unit, points, description, sign, make, tolerances = shared[key]
+                tol = tolerances.get(tol_abs)
+                if tol is None:
+                    tol = tolerances[tol_abs] = make(abs=tol_abs)
+                mistakes = tuple([Mistake(name, names[name], float(v)) for name, v in found]) if found else ()
+                entry = KeyEntry(sid, problem, key, float(value), unit, tol, points, description, sign, mistakes)
+                entries.append(entry)
             out[sid] = entries
         return out
     except (ValueError, KeyError, TypeError) as exc:
