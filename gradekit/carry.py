@@ -23,6 +23,11 @@ equivalent offset force, so its couple comes from the offset h (with the sense o
 
 Whether a later answer matches its carried reference is `Carried.accepts` (the answer's
 `gradekit.keys.Tolerance`); `credited` lists the answers wrong against the key that match theirs.
+
+Batch first: `plan_many` does the work for every variant of a solved batch at once (one batched
+solve for the unit responses, the stems' maps read off `flat_results`, the numeric dependence
+tests as arrays) and keeps it on the batch; `plan` of a `Result` is its row of that plan, so a
+class's students cost one plan per solved batch plus a few hundred microseconds each.
 """
 
 from __future__ import annotations
@@ -111,7 +116,8 @@ class Carried:
         return (tolerance or self.tolerance).accepts(answer, self.value)
 
     def describe(self) -> str:
-        """``consistent with your alpha2 = 480 rad/s² and aG2 = 2.1e+05 mm/s²`` (the wrong values used)."""
+        """``consistent with your alpha2 = 480 rad/s² and aG2 = 210000 mm/s²``: the wrong values used
+        (all of them when none was wrong)."""
         shown = [u.describe() for u in (self.wrong or self.used)]
         listed = shown[0] if len(shown) == 1 else ", ".join(shown[:-1]) + " and " + shown[-1]
         return f"consistent with your {listed}"
