@@ -162,6 +162,7 @@ def read_submissions(
     per_file: list[tuple[str, list[Submission]]] = []
     ignored: list[FileRecord] = []
     for root, dirs, names in os.walk(submissions):
+        below = os.path.relpath(root, submissions)  # the folder's path below the submissions folder
         dirs.sort()
         for d in list(dirs):
             full = os.path.join(root, d)
@@ -184,7 +185,7 @@ def read_submissions(
             if kind:
                 ignored.append(FileRecord(display, "skipped", f"{kind}: not opened"))
                 continue
-            relative = printable(os.path.relpath(path, submissions))
+            relative = printable(name if below == os.curdir else os.path.join(below, name))
             per_file.append((display, read_file(path, display, relative, ids, key_index)))
     if not per_file and not ignored:
         raise GradekitError(

@@ -53,6 +53,17 @@ class Answer:
     field: str = "value"
     issue: str = ""
 
+    def __init__(
+        self, key: str, raw: str, raw_unit: str, number: float | None, unit: str, line: int, field: str = "value",
+        issue: str = "",
+    ) -> None:
+        # The fields, in order (a test holds this to the dataclass's fields). The generated __init__
+        # of a frozen dataclass sets each through object.__setattr__, most of the cost of the
+        # hundred thousand answers of a class; the instance dict is filled at once instead.
+        self.__dict__.update(
+            key=key, raw=raw, raw_unit=raw_unit, number=number, unit=unit, line=line, field=field, issue=issue
+        )
+
 
 @dataclass(frozen=True)
 class Submission:
@@ -212,6 +223,7 @@ _NUM = re.compile(
     r"(?:\s*[x×*·]\s*10\s*(?:\^|\*\*)\s*(?P<exp>[+-]?\d+))?\s*(?P<unit>.*?)\s*"
 )
 _NONFINITE = re.compile(r"[+-]?(nan|inf|infinity|∞)", re.IGNORECASE)
+_PLAIN_NUMBER = re.compile(r"[+-]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][+-]?[0-9]+)?")  # 1.12, -3e4: no unit
 _SPACES = str.maketrans({"\u00a0": " ", "\u2009": " ", "\u202f": " ", "\u2212": "-", "\u2013": "-"})
 
 
@@ -229,6 +241,10 @@ def parse_value(text: str, *, decimal_comma: bool) -> tuple[float, str]:
     Raises:
         ValueError: with the message to show (``expected a number, got 'abc'``).
     """
+    if len(text) <= MAX_CELL and _PLAIN_NUMBER.fullmatch(text):  # most cells: what the general rules give
+        value = float(text)
+        if math.isfinite(value):
+            return value, ""
     cell = text.translate(_SPACES).strip()
     if not cell:
         raise ValueError("expected a number, got a blank cell")
@@ -279,13 +295,16 @@ def _col(header: list[str], names: tuple[str, ...]) -> int | None:
     return None
 
 
+_CONTROL = re.compile(r"[\x00-\x08\x0b\x0e-\x1f]")  # below a space, but not tab, CR, LF or form feed
+
+
 def _binary(data: bytes, text: str) -> str | None:
     if data.startswith(b"PK\x03\x04"):
         return "expected a CSV text file, got a zip or Excel workbook (save it as CSV)"
     if data.startswith(b"%PDF"):
         return "expected a CSV text file, got a PDF"
     sample = text[:4096]
-    control = sum(1 for c in sample if c < " " and c not in "\t\r\n\f")
+    control = len(_CONTROL.findall(sample))
     if "\x00" in sample or control > len(sample) // 20:
         return "expected a CSV text file, got binary data"
     return None
@@ -338,7 +357,7 @@ def read_file(path: Path, display: str, relative: str, ids: IdIndex, keys: KeyIn
         return fail(f"expected a CSV file, got unreadable CSV ({exc})")
     if not rows:
         return fail(f"expected a CSV with columns {EXPECTED}, got only blank lines")
-    reader = _Layout(display, relative, ids, keys, delimiter, mtime)
+    reader = _Layout(display, found, ids, keys, delimiter, mtime)
     return reader.read(rows)
 
 
@@ -394,14 +413,27 @@ def _read_regular(path: Path) -> tuple[bytes, float]:
         os.close(fd)
 
 
+_LINE_END = re.compile(r"\r\n|\r|\n")  # what ends a row for the csv module (newline="")
+
+
 def _rows(text: str, delimiter: str) -> list[tuple[int, list[str]]]:
     """Non-blank rows with the line each starts on."""
+    if '"' not in text and "\x00" not in text and len(text) < csv.field_size_limit():
+        # No quotes, so no cell spans lines or holds the delimiter: each line is a row, split at
+        # the delimiter, as the csv module reads it (most files; the module takes several times longer).
+        rows = []
+        for line, row in enumerate(_LINE_END.split(text), 1):
+            cells = [c.strip() for c in row.split(delimiter)]
+            if any(cells):
+                rows.append((line, cells))
+        return rows
     reader = csv.reader(io.StringIO(text, newline=""), delimiter=delimiter, skipinitialspace=True)
     rows = []
     start = 1
     for row in reader:
-        if any(c.strip() for c in row):
-            rows.append((start, [c.strip() for c in row]))
+        cells = [c.strip() for c in row]
+        if any(cells):
+            rows.append((start, cells))
         start = reader.line_num + 1
     return rows
 
@@ -420,15 +452,14 @@ class _Layout:
     """Work out the file's layout (long, wide, headerless) and read its rows."""
 
     def __init__(
-        self, display: str, relative: str, ids: IdIndex, keys: KeyIndex, delimiter: str, mtime: float
+        self, display: str, from_name: set[str], ids: IdIndex, keys: KeyIndex, delimiter: str, mtime: float
     ) -> None:
         self.display = display
-        self.relative = relative
         self.ids = ids
         self.keys = keys
         self.delimiter = delimiter
         self.mtime = mtime
-        self.from_name = ids.from_path(relative)
+        self.from_name = from_name  # the roster students the file's path points to
 
     @property
     def named(self) -> str | None:
@@ -490,12 +521,12 @@ class _Layout:
         drafts: dict[str | None, _Draft] = {}
         row_ids: list[tuple[int, str, str | None]] = []  # line, raw id, roster id
         parsed: list[tuple[int, str | None, Answer | Issue]] = []
+        matched: dict[str, str | None] = {"": None}  # the id cell repeats on every row
         for line, row in rows:
             raw_id = row[id_col] if id_col is not None and id_col < len(row) else ""
-            sid = self.ids.match(raw_id) if raw_id else None
+            sid = matched[raw_id] if raw_id in matched else matched.setdefault(raw_id, self.ids.match(raw_id))
             row_ids.append((line, raw_id, sid))
-            extra = [c for c in row[width:] if c]
-            if extra:
+            if len(row) > width and any(row[width:]):  # text beyond the layout's cells
                 hint = ""
                 if self.delimiter == ",":
                     hint = " (a decimal comma? write 1.12, or use ';' between columns)"
@@ -505,7 +536,9 @@ class _Layout:
             parsed.append((line, sid, self._answer(line, row, key_col, value_col, unit_col)))
         owners = self._owners(row_ids, drafts)
         for (line, _sid, item), owner in zip(parsed, owners, strict=True):
-            draft = drafts.setdefault(owner, _Draft())
+            draft = drafts.get(owner)
+            if draft is None:
+                draft = drafts[owner] = _Draft()
             if isinstance(item, Issue):
                 draft.issues.append(item)
             elif item.key in draft.answers:
