@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from functools import lru_cache
 
 from gradekit.errors import GradekitError
 from gradekit.grading.reader import Answer, Issue, Submission
@@ -77,6 +78,17 @@ class AnswerResult:
     error: float | None = None  # answer − key in the key's unit, wrapped at 360° for an angle
     method_diagnosis: Mistake | None = None
 
+    def __init__(
+        self, entry: KeyEntry, answer: Answer | None, value: float | None, correct: bool, points: float,
+        rel_error: float | None, abs_error: float | None, diagnosis: Mistake | None = None, message: str = "",
+        error: float | None = None, method_diagnosis: Mistake | None = None,
+    ) -> None:
+        # The fields, in order (as `Answer.__init__`: one verdict per answer of the class).
+        self.__dict__.update(
+            entry=entry, answer=answer, value=value, correct=correct, points=points, rel_error=rel_error,
+            abs_error=abs_error, diagnosis=diagnosis, message=message, error=error, method_diagnosis=method_diagnosis,
+        )
+
     @property
     def angle(self) -> bool:
         """True for an angle: its error is in degrees (wrapped), never a percentage."""
@@ -118,10 +130,20 @@ class StudentGrade:
         return 100.0 * self.total / self.max_points if self.max_points else 0.0
 
 
+_DEGREES = ("deg", "degree", "degrees", "°")
+_RADIANS = ("rad", "radian", "radians")
+
+
+@lru_cache(maxsize=1024)
+def _turn(unit: str) -> float:
+    """A full turn in *unit* (360 for degrees, 2π for radians), 0 for a unit that is not an angle."""
+    unit = unit.replace(" ", "").lower()
+    return 360.0 if unit in _DEGREES else 2 * math.pi if unit in _RADIANS else 0.0
+
+
 def is_angle(entry: KeyEntry) -> bool:
     """An answer in degrees or radians, or one whose tolerance wraps."""
-    unit = entry.unit.replace(" ", "").lower()
-    return bool(entry.tolerance.period) or unit in ("deg", "degree", "degrees", "°", "rad", "radian", "radians")
+    return bool(entry.tolerance.period) or bool(_turn(entry.unit))
 
 
 def diagnose(entry: KeyEntry, value: float, *, method_only: bool = False) -> Mistake | None:
@@ -130,13 +152,30 @@ def diagnose(entry: KeyEntry, value: float, *, method_only: bool = False) -> Mis
     The entry's own (re-solved) mistakes come first, then `generic_mistakes` not already named;
     with *method_only*, only the mistakes of method (`METHOD_MISTAKES`).
     """
+    return _diagnoses(entry, value)[1 if method_only else 0]
+
+
+def _diagnoses(entry: KeyEntry, value: float) -> tuple[Mistake | None, Mistake | None]:
+    """(`diagnose`, `diagnose` with *method_only*) in one pass over the candidates.
+
+    The generic mistakes are made only when no mistake of the entry's own explains *value* (none
+    of them is a mistake of method).
+    """
+    accepts = entry.tolerance.accepts
+    first = None
+    for mistake in entry.mistakes:
+        if math.isfinite(mistake.value) and accepts(value, mistake.value):
+            if first is None:
+                first = mistake
+            if mistake.name in METHOD_MISTAKES:
+                return first, mistake
+    if first is not None:
+        return first, None
     named = {m.name for m in entry.mistakes}
-    for mistake in (*entry.mistakes, *(m for m in generic_mistakes(entry) if m.name not in named)):
-        if method_only and mistake.name not in METHOD_MISTAKES:
-            continue
-        if math.isfinite(mistake.value) and entry.tolerance.accepts(value, mistake.value):
-            return mistake
-    return None
+    for mistake in generic_mistakes(entry):
+        if mistake.name not in named and math.isfinite(mistake.value) and accepts(value, mistake.value):
+            return mistake, None
+    return None, None
 
 
 def compare(entry: KeyEntry, answer: Answer | None) -> AnswerResult:
@@ -162,21 +201,18 @@ def compare(entry: KeyEntry, answer: Answer | None) -> AnswerResult:
             value = answer.number * factor(answer.unit, entry.unit)
         except GradekitError as exc:
             return AnswerResult(entry, answer, None, False, 0.0, None, None, message=exc.detail)
-    correct = entry.tolerance.accepts(value, entry.value)
-    error = entry.tolerance.difference(value, entry.value)
-    if is_angle(entry) and not entry.tolerance.period:
-        period = 360.0 if entry.unit.replace(" ", "").lower() in ("deg", "degree", "degrees", "°") else 2 * math.pi
-        error = (error + period / 2) % period - period / 2
+    tol = entry.tolerance
+    correct = tol.accepts(value, entry.value)
+    error = tol.difference(value, entry.value)
+    turn = 0.0 if tol.period else _turn(entry.unit)
+    if turn:
+        error = (error + turn / 2) % turn - turn / 2
     abs_error = abs(error)
-    rel_error = abs_error / abs(entry.value) if entry.value and not is_angle(entry) else None
-    diagnosis = method = None
-    if not correct:
-        diagnosis = diagnose(entry, value)
-        method = diagnosis if diagnosis is None or diagnosis.name in METHOD_MISTAKES else (
-            diagnose(entry, value, method_only=True))
-    points = entry.points if correct else 0.0
-    return AnswerResult(entry, answer, value, correct, points, rel_error, abs_error, diagnosis,
-                        error=error, method_diagnosis=method)
+    rel_error = abs_error / abs(entry.value) if entry.value and not (tol.period or turn) else None
+    if correct:
+        return AnswerResult(entry, answer, value, True, entry.points, rel_error, abs_error, None, "", error, None)
+    diagnosis, method = _diagnoses(entry, value)
+    return AnswerResult(entry, answer, value, False, 0.0, rel_error, abs_error, diagnosis, "", error, method)
 
 
 def grade_student(
