@@ -31,7 +31,6 @@ with k answers costs O(n·k·log n) plus the matches found.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -152,17 +151,24 @@ def _density(sorted_values: np.ndarray, weights: np.ndarray, x: np.ndarray, floo
     return np.maximum(left, right), h
 
 
-def _clusters(keys: Sequence[KeyEntry], names: list[str], threshold: float) -> dict[str, int]:
-    """Answer key → trial id: answers of one problem whose keys are rank-correlated at |ρ| ≥ threshold share one."""
-    problem_of: dict[str, str] = {}
-    table: dict[str, dict[str, float]] = {}
-    for e in keys:
-        problem_of.setdefault(e.key, e.problem)
-        table.setdefault(e.key, {})[e.student_id] = e.value
+def _clusters(
+    names: list[str], problem_of: list[str], everyone: list[str], key_ix: np.ndarray, cols: np.ndarray,
+    values: np.ndarray, threshold: float,
+) -> dict[str, int]:
+    """Answer key → trial id: answers of one problem whose keys are rank-correlated at |ρ| ≥ threshold share one.
+
+    *names* and *problem_of* list each answer key and its problem; entry i of *key_ix*, *cols* and
+    *values* is the key of answer ``names[key_ix[i]]`` for student ``everyone[cols[i]]``.
+    """
+    table = np.zeros((len(names), len(everyone)))
+    present = np.zeros((len(names), len(everyone)), bool)
+    table[key_ix, cols] = values
+    present[key_ix, cols] = True
+    by_sid = np.array(sorted(range(len(everyone)), key=everyone.__getitem__), dtype=np.int64)
     out: dict[str, int] = {}
-    by_problem: dict[str, list[str]] = {}
-    for name in names:
-        by_problem.setdefault(problem_of[name], []).append(name)
+    by_problem: dict[str, list[int]] = {}
+    for i, problem in enumerate(problem_of):
+        by_problem.setdefault(problem, []).append(i)
     for members in by_problem.values():
         parent = list(range(len(members)))
 
@@ -172,10 +178,9 @@ def _clusters(keys: Sequence[KeyEntry], names: list[str], threshold: float) -> d
                 i = parent[i]
             return i
 
-        common = set.intersection(*(set(table[m]) for m in members))
+        common = by_sid[present[members][:, by_sid].all(axis=0)]  # students with every one, by id
         if len(members) > 1 and len(common) >= 5:
-            ids = sorted(common)
-            matrix = np.array([[table[m][s] for m in members] for s in ids])
+            matrix = table[members][:, common].T
             ranks = np.argsort(np.argsort(matrix, axis=0), axis=0).astype(float)
             with np.errstate(invalid="ignore", divide="ignore"):
                 rho = np.corrcoef(ranks, rowvar=False)
@@ -187,8 +192,19 @@ def _clusters(keys: Sequence[KeyEntry], names: list[str], threshold: float) -> d
         base = len(out)
         roots: dict[int, int] = {}
         for i, m in enumerate(members):
-            out[m] = base + roots.setdefault(root(i), len(roots))
+            out[names[m]] = base + roots.setdefault(root(i), len(roots))
     return out
+
+
+def _bands(tolerances: list, values: np.ndarray) -> np.ndarray:
+    """`Tolerance.band` of each key value: relative bands as arrays, significant-figure ones each alone."""
+    rel = np.fromiter((t.rel for t in tolerances), float, len(values))
+    floor = np.fromiter((t.abs for t in tolerances), float, len(values))
+    bands = np.maximum(rel * np.abs(values), floor)
+    for i, t in enumerate(tolerances):
+        if t.mode == "sigfigs":
+            bands[i] = t.band(float(values[i]))
+    return bands
 
 
 def _best_pairs(hits: list[tuple[np.ndarray, np.ndarray]], n_sub: int, n_all: int, n_trials: int):
@@ -262,38 +278,54 @@ def find_copies(
     subs = [g for g in grades if g.submission is not None]
     if not subs or not keys:
         return []
-    everyone = list(dict.fromkeys(e.student_id for e in keys))
+    sids = [e.student_id for e in keys]
+    everyone = list(dict.fromkeys(sids))
+    known = set(everyone)
     for g in subs:
-        if g.student.student_id not in everyone:
+        if g.student.student_id not in known:
+            known.add(g.student.student_id)
             everyone.append(g.student.student_id)
     col = {sid: i for i, sid in enumerate(everyone)}
     n_all, n_sub = len(everyone), len(subs)
     classmates = max(n_all - 1, 1)
-    names = list(dict.fromkeys(e.key for e in keys))
+    key_names = [e.key for e in keys]
+    names = list(dict.fromkeys(key_names))
     aid = {name: i for i, name in enumerate(names)}
-    trial_of = _clusters(keys, names, correlated)
-    n_trials = max(trial_of.values()) + 1
     sub_col = np.array([col[g.student.student_id] for g in subs])
 
-    # per answer key: the class's keys, bands, period
-    per_key: dict[int, tuple[list[float], list[float], list[int]]] = {}
-    period = np.zeros(len(names))
-    for e in keys:
-        v, w, o = per_key.setdefault(aid[e.key], ([], [], []))
-        v.append(e.value)
-        w.append(e.tolerance.band(e.value))
-        o.append(col[e.student_id])
-        period[aid[e.key]] = e.tolerance.period
-    # per answer key: the submitted values (student row, value, wrong for them)
-    answered: dict[int, tuple[list[int], list[float], list[bool]]] = {}
-    for row, g in enumerate(subs):
-        for r in g.results:
-            if r.value is None or not math.isfinite(r.value) or r.entry.key not in aid:
-                continue
-            rows, xs, wrong = answered.setdefault(aid[r.entry.key], ([], [], []))
-            rows.append(row)
-            xs.append(r.value)
-            wrong.append(not r.correct)
+    # per answer key: the class's keys, bands and period, in the order of *keys*
+    n = len(keys)
+    key_ix = np.fromiter(map(aid.__getitem__, key_names), np.int64, n)
+    cols = np.fromiter(map(col.__getitem__, sids), np.int64, n)
+    values = np.fromiter((e.value for e in keys), float, n)
+    bands = _bands([e.tolerance for e in keys], values)
+    by_key = np.argsort(key_ix, kind="stable")
+    starts = np.searchsorted(key_ix[by_key], np.arange(len(names) + 1))
+    first = by_key[starts[:-1]]
+    trial_of = _clusters(names, [keys[i].problem for i in first], everyone, key_ix, cols, values, correlated)
+    n_trials = max(trial_of.values()) + 1
+    per_key = {
+        a: (values[idx], bands[idx], cols[idx])
+        for a, idx in enumerate(np.split(by_key, starts[1:-1]))
+    }
+    period = np.array([keys[i].tolerance.period for i in by_key[starts[1:] - 1]], float)  # each key's last entry
+    # per answer key: the submitted values (student row, value, wrong for them), keys in the order first answered
+    given = [
+        (row, a, r.value, not r.correct)
+        for row, g in enumerate(subs)
+        for r in g.results
+        if r.value is not None and (a := aid.get(r.entry.key)) is not None
+    ]
+    answered: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
+    if given:
+        g_row, g_key, g_x, g_wrong = (np.array(z) for z in zip(*given, strict=True))
+        finite = np.isfinite(g_x)
+        g_row, g_key, g_x, g_wrong = g_row[finite], g_key[finite], g_x[finite], g_wrong[finite]
+        order = np.argsort(g_key, kind="stable")
+        bounds = np.flatnonzero(np.diff(g_key[order])) + 1
+        groups = np.split(order, bounds) if len(order) else []
+        for idx in sorted(groups, key=lambda idx: idx[0]):
+            answered[int(g_key[idx[0]])] = (g_row[idx], g_x[idx], g_wrong[idx])
 
     p_band = np.zeros((n_sub, n_trials))
     p_exact = np.zeros((n_sub, n_trials))
@@ -303,11 +335,10 @@ def find_copies(
     share_hits: list[tuple[np.ndarray, np.ndarray]] = []
     for a, (rows_l, xs_l, wrong_l) in answered.items():
         t = trial_of[names[a]]
-        rows, xs, wrong = np.array(rows_l), np.array(xs_l), np.array(wrong_l)
-        rows, xs = rows[wrong], xs[wrong]
+        rows, xs = rows_l[wrong_l], xs_l[wrong_l]
         if not len(rows) or a not in per_key:
             continue
-        v, w, o = (np.array(z) for z in per_key[a])
+        v, w, o = per_key[a]
         if period[a]:
             v = np.mod(v, period[a])
             xs_key = np.mod(xs, period[a])
