@@ -135,3 +135,17 @@ def test_angle_error_is_wrapped_degrees_never_relative() -> None:
     plain = KeyEntry("1", "p1", "p1.th", 337.4, "deg", Tolerance("relative", rel=0.001))  # no period given
     r = compare(plain, Answer("p1.th", "-20.6", "", -20.6, "", 3))
     assert r.rel_error is None and r.abs_error == pytest.approx(2.0)
+
+
+@pytest.mark.parametrize(
+    "raw",
+    ["40.77", "-1.015", "0.000123", "123456", "1234000", "999999", "9.99999", "0.001", "123456000000000", "0",
+     "-0", "0.0", "1.0", "+1", "007", ".5", "5.", "1.234567", "1e3", "1234567", "1234560000000000", "-0.5"],
+)
+def test_a_number_as_read_is_what_the_formatter_prints(raw: str) -> None:
+    """Feedback shows a plain decimal of up to 6 significant figures as written, skipping the
+    formatter: it must be exactly what fmt(value, 6) prints, and anything else goes through it."""
+    from gradekit.grading.exports import _as_read
+    from gradekit.numbers import fmt
+
+    assert _as_read(raw, float(raw)) == fmt(float(raw), 6)

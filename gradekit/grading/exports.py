@@ -125,6 +125,20 @@ def _points_cell(earned: float, worth: float) -> str:
     return text
 
 
+_PLAIN_DECIMAL = re.compile(r"-?(?:0|[1-9][0-9]{0,14})(?:\.[0-9]*[1-9])?")  # no exponent, no needless zero
+
+
+def _as_read(raw: str, number: float) -> str:
+    """``fmt(number, 6)`` for a number a student wrote as *raw*.
+
+    A plain decimal of 1 to 6 significant figures below 10¹⁵ (``40.77``, ``-0.00123``) is already
+    what the formatter prints for it, so most cells skip the formatter.
+    """
+    if _PLAIN_DECIMAL.fullmatch(raw) and 0 < len(raw.lstrip("-").replace(".", "").strip("0")) <= 6:
+        return raw
+    return fmt(number, 6)
+
+
 def _answer_cells(r: AnswerResult, reveal: bool, hint: str) -> tuple[str, ...]:
     """The cells of one feedback row as plain text, in `_COLUMNS` order (then the correct answer
     with *reveal*); the Markdown and the HTML page escape the same cells."""
@@ -135,7 +149,7 @@ def _answer_cells(r: AnswerResult, reveal: bool, hint: str) -> tuple[str, ...]:
         read = answer.raw + (f" [{answer.raw_unit}]" if answer.raw_unit else "")
     if r.value is not None and answer is not None:
         given = _PRETTY[answer.unit] if answer.unit else f"{unit} (no unit given)"
-        parsed = f"{fmt(answer.number, 6)} {given}".strip()
+        parsed = f"{_as_read(answer.raw, answer.number)} {given}".strip()
         if answer.unit and answer.unit != entry.unit:
             parsed += f" = {fmt(r.value, 6)} {unit}"
     else:
