@@ -83,11 +83,19 @@ class AnswerResult:
         rel_error: float | None, abs_error: float | None, diagnosis: Mistake | None = None, message: str = "",
         error: float | None = None, method_diagnosis: Mistake | None = None,
     ) -> None:
-        # The fields, in order (as `Answer.__init__`: one verdict per answer of the class).
-        self.__dict__.update(
-            entry=entry, answer=answer, value=value, correct=correct, points=points, rel_error=rel_error,
-            abs_error=abs_error, diagnosis=diagnosis, message=message, error=error, method_diagnosis=method_diagnosis,
-        )
+        # The fields, in order, written directly (as `Answer.__init__`: one verdict per answer of the class).
+        fields = self.__dict__
+        fields["entry"] = entry
+        fields["answer"] = answer
+        fields["value"] = value
+        fields["correct"] = correct
+        fields["points"] = points
+        fields["rel_error"] = rel_error
+        fields["abs_error"] = abs_error
+        fields["diagnosis"] = diagnosis
+        fields["message"] = message
+        fields["error"] = error
+        fields["method_diagnosis"] = method_diagnosis
 
     @property
     def angle(self) -> bool:

@@ -407,9 +407,9 @@ def report_markdown(
         for r in g.results:
             stats.setdefault(r.entry.key, []).append(r)
     for key, results in stats.items():
-        right = sum(r.correct for r in results)
-        answered = sum(r.value is not None for r in results)
-        mistakes = Counter(r.diagnosis.name for r in results if r.diagnosis)
+        right = [r.correct for r in results].count(True)
+        answered = len(results) - [r.value for r in results].count(None)
+        mistakes = Counter([r.diagnosis.name for r in results if r.diagnosis])
         common = ", ".join(f"{name} ({n})" for name, n in mistakes.most_common(3)) or "–"
         share = 100.0 * right / len(results)
         out.append(

@@ -59,10 +59,16 @@ class Answer:
     ) -> None:
         # The fields, in order (a test holds this to the dataclass's fields). The generated __init__
         # of a frozen dataclass sets each through object.__setattr__, most of the cost of the
-        # hundred thousand answers of a class; the instance dict is filled at once instead.
-        self.__dict__.update(
-            key=key, raw=raw, raw_unit=raw_unit, number=number, unit=unit, line=line, field=field, issue=issue
-        )
+        # hundred thousand answers of a class; the instance dict is written directly instead.
+        fields = self.__dict__
+        fields["key"] = key
+        fields["raw"] = raw
+        fields["raw_unit"] = raw_unit
+        fields["number"] = number
+        fields["unit"] = unit
+        fields["line"] = line
+        fields["field"] = field
+        fields["issue"] = issue
 
 
 @dataclass(frozen=True)
