@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import gc
 import os
-from collections.abc import Iterator, Mapping, Sequence
-from contextlib import contextmanager
-from dataclasses import dataclass
+from collections.abc import Iterable, Iterator, Mapping, Sequence
+from contextlib import contextmanager, nullcontext
+from dataclasses import astuple, dataclass
 from pathlib import Path
 
 from gradekit.csvsafe import StagedFolder, write_staged
@@ -24,6 +24,7 @@ from gradekit.grading.exports import (
     write_text,
 )
 from gradekit.grading.integrity import IntegrityFlag, find_copies
+from gradekit.grading.parallel import Forked, helper_share, pack, unpack
 from gradekit.grading.reader import IdIndex, KeyIndex, Submission, read_file, special_kind
 from gradekit.keys import KeyEntry
 from gradekit.roster import Student
@@ -154,12 +155,22 @@ def read_submissions(
     Raises:
         GradekitError: *submissions* is not a readable folder.
     """
-    if not submissions.is_dir():
-        raise GradekitError("expected a folder of submission CSVs, got none there", path=str(submissions))
+    files, ignored = _walk(submissions, skip)
     ids = IdIndex(students)
     key_index = KeyIndex(e.key for e in keys)
+    per_file = [(display, read_file(path, display, relative, ids, key_index)) for path, display, relative in files]
+    chosen = _choose(sub for _, subs in per_file for sub in subs)
+    records = [_record(display, subs, chosen) for display, subs in per_file]
+    return Intake(chosen, tuple(records + ignored))
+
+
+def _walk(submissions: Path, skip: Path | None) -> tuple[list[tuple[Path, str, str]], list[FileRecord]]:
+    """The regular files below *submissions* to read, as (path, path to print, path below the
+    folder), and a record of each thing that is not read (hidden, special, linked, *skip*)."""
+    if not submissions.is_dir():
+        raise GradekitError("expected a folder of submission CSVs, got none there", path=str(submissions))
     skip_real = os.path.realpath(skip) if skip is not None else None
-    per_file: list[tuple[str, list[Submission]]] = []
+    files: list[tuple[Path, str, str]] = []
     ignored: list[FileRecord] = []
     for root, dirs, names in os.walk(submissions):
         below = os.path.relpath(root, submissions)  # the folder's path below the submissions folder
@@ -185,24 +196,25 @@ def read_submissions(
             if kind:
                 ignored.append(FileRecord(display, "skipped", f"{kind}: not opened"))
                 continue
-            relative = printable(name if below == os.curdir else os.path.join(below, name))
-            per_file.append((display, read_file(path, display, relative, ids, key_index)))
-    if not per_file and not ignored:
+            files.append((path, display, printable(name if below == os.curdir else os.path.join(below, name))))
+    if not files and not ignored:
         raise GradekitError(
             "expected submission files in this folder, got an empty folder", path=str(submissions)
         )
+    return files, ignored
+
+
+def _choose(subs: Iterable[Submission]) -> dict[str, Submission]:
+    """The submission graded for each student of *subs* (see `read_submissions`)."""
     by_student: dict[str, list[Submission]] = {}
-    for _, subs in per_file:
-        for sub in subs:
-            if sub.student_id is not None:
-                by_student.setdefault(sub.student_id, []).append(sub)
+    for sub in subs:
+        if sub.student_id is not None:
+            by_student.setdefault(sub.student_id, []).append(sub)
     # A file named for the student beats one that only names them inside (no one's submission is
     # replaced by a file their own name does not point to); then readable; then the newest.
-    chosen = {
+    return {
         sid: max(subs, key=lambda s: (s.by_name, s.readable, s.mtime, s.path)) for sid, subs in by_student.items()
     }
-    records = [_record(display, subs, chosen) for display, subs in per_file]
-    return Intake(chosen, tuple(records + ignored))
 
 
 def _record(display: str, subs: list[Submission], chosen: dict[str, Submission]) -> FileRecord:
@@ -248,10 +260,16 @@ def grade_students(
     keys: Sequence[KeyEntry], students: Sequence[Student], chosen: Mapping[str, Submission]
 ) -> list[StudentGrade]:
     """Grade every roster student (in roster order) against their own key entries."""
+    entries = _entries(keys)
+    return [grade_student(s, entries.get(s.student_id, []), chosen.get(s.student_id)) for s in students]
+
+
+def _entries(keys: Sequence[KeyEntry]) -> dict[str, list[KeyEntry]]:
+    """Each student's key entries, in order."""
     entries: dict[str, list[KeyEntry]] = {}
     for entry in keys:
         entries.setdefault(entry.student_id, []).append(entry)
-    return [grade_student(s, entries.get(s.student_id, []), chosen.get(s.student_id)) for s in students]
+    return entries
 
 
 def _check_out(out: Path, submissions: Path) -> None:
@@ -269,12 +287,9 @@ def _check_out(out: Path, submissions: Path) -> None:
 
 
 def _conflicts(
-    grades: Sequence[StudentGrade], keys: Sequence[KeyEntry], students: Sequence[Student]
+    grades: Sequence[StudentGrade], entries: Mapping[str, list[KeyEntry]], students: Sequence[Student]
 ) -> list[IntegrityFlag]:
     """One `IdConflict` per (file, other student) for every graded file that names someone else inside."""
-    entries: dict[str, list[KeyEntry]] = {}
-    for entry in keys:
-        entries.setdefault(entry.student_id, []).append(entry)
     by_id = {s.student_id: s for s in students}
     flags: list[IntegrityFlag] = []
     for g in grades:
@@ -340,7 +355,9 @@ def grade_batch(
     in only when complete (`StagedFolder`): after an error or Ctrl-C, OUT is still the previous
     complete run; feedback of students no longer on the roster is removed. The submissions folder
     is only read. A bad submission never raises: it scores what can be read and its messages go
-    to the feedback and the report.
+    to the feedback and the report. In a large class, when a core is free, a forked helper process
+    reads, grades and writes the feedback of the students whose files are named for them at the
+    roster's end (`gradekit.grading.parallel`); the outputs are the same byte for byte.
 
     Args:
         keys: every student's key entries (grouped by ``student_id`` and ``problem``).
@@ -382,40 +399,87 @@ def _grade_batch(
         raise GradekitError("expected a roster with students, got none")
     titles = dict(problem_titles or {})
     skip = out if out.resolve().is_relative_to(submissions.resolve()) else None
-    intake = read_submissions(submissions, students, keys, skip=skip)
-    grades = grade_students(keys, students, intake.chosen)
-    conflicts = _conflicts(grades, keys, students)
-    flags = conflicts + find_copies(grades, keys)
+    files, ignored = _walk(submissions, skip)
     _check_out(out, submissions)
+    ids = IdIndex(students)
+    key_index = KeyIndex(e.key for e in keys)
+    entries = _entries(keys)
+    by_id = {s.student_id: s for s in students}
+    found = [ids.from_path(relative) for _, _, relative in files]
+    named = [next(iter(f)) if len(f) == 1 else None for f in found]
+    theirs = _helper_share(students, named)
     problems = list(dict.fromkeys(e.problem for e in keys))
+    names = safe_names(s.student_id for s in students)
     with StagedFolder(out, MARKER) as stage:
         root = stage.root
+        feedback = root / "feedback"
+        feedback.mkdir()
+
+        def read(indices: list[int]) -> dict[int, list[Submission]]:
+            return {i: read_file(*files[i], ids, key_index, found=found[i]) for i in indices}
+
+        def graded(student: Student, chosen: Mapping[str, Submission]) -> StudentGrade:
+            g = grade_student(student, entries.get(student.student_id, []), chosen.get(student.student_id))
+            md, page = feedback_pages(g, titles, assignment_title, reveal, hint)
+            stem = names[student.student_id]
+            write_staged(feedback / f"{stem}.md", md)
+            write_staged(feedback / f"{stem}.html", page)
+            return g
+
+        def helper() -> tuple[list[tuple], list[tuple]]:
+            """The helper's share: the files named for its students; their grades and feedback."""
+            per_file = read([i for i, sid in enumerate(named) if sid in theirs])
+            chosen = _choose(sub for subs in per_file.values() for sub in subs)
+            if chosen.keys() != theirs:  # a file named for a student answers for that student alone
+                raise RuntimeError(f"expected submissions of {len(theirs)} students, got {len(chosen)}")
+            done = [graded(by_id[sid], chosen) for sid in chosen]
+            records = [(i, *astuple(_record(files[i][1], subs, chosen))) for i, subs in per_file.items()]
+            return records, [pack(g) for g in done]
+
+        with Forked(helper) if theirs else nullcontext() as other:
+            per_file = read([i for i, sid in enumerate(named) if sid not in theirs])
+            chosen = {sid: sub for sid, sub in _choose(s for subs in per_file.values() for s in subs).items()
+                      if sid not in theirs}
+            mine = [None if s.student_id in theirs else graded(s, chosen) for s in students]
+            records, packed = other.result() if theirs else ([], [])
+        helped = {}
+        for data in packed:
+            sid = data[0][1]
+            helped[sid] = unpack(data, by_id[sid], entries.get(sid, []))
+            chosen[sid] = helped[sid].submission
+        grades = [g if g is not None else helped[s.student_id] for g, s in zip(mine, students, strict=True)]
+        record = {i: FileRecord(*fields) for i, *fields in records}
+        record.update((i, _record(files[i][1], subs, chosen)) for i, subs in per_file.items())
+        intake_files = tuple([record[i] for i in range(len(files))] + ignored)
+        conflicts = _conflicts(grades, entries, students)
+        flags = conflicts + find_copies(grades, keys)
         write_grades(root / "grades.csv", grades, problems, titles)
         write_canvas(root / "canvas.csv", grades, assignment_title)
         write_moodle(root / "moodle.csv", grades, assignment_title)
-        names = safe_names(s.student_id for s in students)
-        feedback = root / "feedback"
-        feedback.mkdir()
-        for g in grades:
-            stem = names[g.student.student_id]
-            md, page = feedback_pages(g, titles, assignment_title, reveal, hint)
-            write_staged(feedback / f"{stem}.md", md)
-            write_staged(feedback / f"{stem}.html", page)
         image = None
         if histogram:
             percents = [g.percent for g in grades if g.submission is not None]
             write_histogram(root / "histogram.png", percents, assignment_title)
             image = "histogram.png"
-        files = [(f.path, f.status, f.detail) for f in intake.files]
+        listed = [(f.path, f.status, f.detail) for f in intake_files]
         report = report_markdown(
-            assignment_title=assignment_title, grades=grades, files=files, flags=flags, histogram=image
+            assignment_title=assignment_title, grades=grades, files=listed, flags=flags, histogram=image
         )
-        write_text(root / "report.md", _first_section(report, _attention(grades, conflicts, intake.files)))
+        write_text(root / "report.md", _first_section(report, _attention(grades, conflicts, intake_files)))
         written = stage.commit(
             "gradekit grading output; files listed here are rewritten by the next run, others are left alone",
             extra_previous=() if stage.previous() else _unlisted_outputs(out),
         )
-    return BatchResult(tuple(grades), intake.files, tuple(flags), out, tuple(written))
+    return BatchResult(tuple(grades), intake_files, tuple(flags), out, tuple(written))
+
+
+def _helper_share(students: Sequence[Student], named: Sequence[str | None]) -> set[str]:
+    """The students a helper process grades (see `parallel.helper_share`): of those whose file's name
+    points to them, the roster's last; none when the roster repeats an id."""
+    if len({s.student_id for s in students}) < len(students):
+        return set()
+    has_file = set(named)
+    return helper_share([s.student_id for s in students if s.student_id in has_file])
 
 
 def _unlisted_outputs(out: Path) -> list[str]:

@@ -316,7 +316,9 @@ def _binary(data: bytes, text: str) -> str | None:
     return None
 
 
-def read_file(path: Path, display: str, relative: str, ids: IdIndex, keys: KeyIndex) -> list[Submission]:
+def read_file(
+    path: Path, display: str, relative: str, ids: IdIndex, keys: KeyIndex, *, found: set[str] | None = None
+) -> list[Submission]:
     """Read one submission file; never raises for any content.
 
     Only a regular file is opened, without following a symbolic link and without blocking (a
@@ -328,13 +330,15 @@ def read_file(path: Path, display: str, relative: str, ids: IdIndex, keys: KeyIn
         relative: the path below the submissions folder, searched for student ids.
         ids: the roster ids.
         keys: the assignment's answer keys.
+        found: ``ids.from_path(relative)``, when the caller has it already.
 
     Returns:
         One `Submission` per student the file answers for (several for a class-wide file); an
         unreadable file gives one with ``readable=False`` and the reason in ``issues``; it is
         still tied to the student its name points to.
     """
-    found = ids.from_path(relative)
+    if found is None:
+        found = ids.from_path(relative)
     named = next(iter(found)) if len(found) == 1 else None
 
     def fail(message: str, line: int | None = None, fld: str | None = "file") -> list[Submission]:

@@ -1,0 +1,249 @@
+"""A second process for a share of a large class: it reads, grades and writes the feedback of the
+students it is given while the first process does the rest, then hands back their grades.
+
+The helper is forked, so it starts in milliseconds with the keys and roster the parent has already
+read, and its grades come back as a few strings and byte strings per student (`pack`/`unpack`:
+pickling the records themselves would send every student's keys along and cost more than grading).
+Where fork is not available (Windows, macOS's default), in a program with other threads, on one
+core, or while the other cores are busy, everything stays in one process.
+"""
+
+from __future__ import annotations
+
+import os
+import pickle
+import signal
+import threading
+import traceback
+from array import array
+from collections.abc import Callable, Sequence
+
+from gradekit.grading.compare import AnswerResult, ProblemScore, StudentGrade
+from gradekit.grading.reader import Answer, Issue, Submission
+from gradekit.keys import KeyEntry, Mistake
+from gradekit.roster import Student
+
+FROM = 200
+"""Students a helper takes at the least: below that, starting it costs more than it saves."""
+
+SHARE = 0.45
+"""The helper's share of the students it could take: it spends a little more on each (its grades go
+back to the parent, whose memory it copies as it writes) and the parent still rebuilds them."""
+
+
+def cores() -> int:
+    """The processor cores this process may run on."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except (AttributeError, OSError):
+        return os.cpu_count() or 1
+
+
+def available() -> bool:
+    """A helper process can be forked safely here: POSIX fork, no other thread, two cores or more."""
+    return hasattr(os, "fork") and threading.active_count() == 1 and cores() >= 2
+
+
+def spare_core() -> bool:
+    """A core is free for a helper: the load average of the last minute (which counts this process)
+    leaves more than half a core idle. When other work keeps the cores busy a helper only competes
+    with it, and the extra work of handing grades back makes the run slower (``make -l`` likewise)."""
+    try:
+        return os.getloadavg()[0] < cores() - 0.5
+    except (AttributeError, OSError):
+        return True
+
+
+def helper_share(candidates: Sequence[str]) -> set[str]:
+    """The students a helper grades, of those it could (*candidates*, in roster order): the last
+    `SHARE` of them, or none when they are too few or no helper can be forked or run beside this one."""
+    take = int(len(candidates) * SHARE)
+    if take < FROM or not available() or not spare_core():
+        return set()
+    return set(candidates[len(candidates) - take :])
+
+
+class Forked:
+    """Run *work* in a forked child process while the parent goes on; `result` waits for its return value.
+
+    The child ignores Ctrl-C (the parent handles it: leaving the ``with`` block stops the child
+    before anything is cleaned up) and ends with ``os._exit``, so nothing of the parent's (output
+    buffers, exit handlers, open ``with`` blocks) runs twice. An exception in the child is raised
+    again by `result`, with the child's traceback as a note. When fork fails, `result` runs *work*
+    in the parent.
+    """
+
+    def __init__(self, work: Callable[[], object]) -> None:
+        self.work = work
+        self.pid: int | None = None
+        self.pipe: int | None = None
+        read, write = os.pipe()
+        try:
+            pid = os.fork()
+        except OSError:
+            os.close(read)
+            os.close(write)
+            return
+        if pid == 0:  # the child
+            status = 1
+            try:
+                os.close(read)
+                signal.signal(signal.SIGINT, signal.SIG_IGN)
+                payload = _outcome(work)
+                with os.fdopen(write, "wb") as pipe:
+                    pipe.write(payload)
+                status = 0
+            finally:
+                os._exit(status)
+        os.close(write)
+        self.pid, self.pipe = pid, read
+
+    def __enter__(self) -> Forked:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def result(self) -> object:
+        """What *work* returned (waiting for the child), or its exception raised again."""
+        if self.pid is None:
+            return self.work()
+        with os.fdopen(self.pipe, "rb") as pipe:
+            self.pipe = None
+            payload = pipe.read()
+        _, status = os.waitpid(self.pid, 0)
+        self.pid = None
+        if not payload:
+            raise RuntimeError(f"the helper process ended without its result (wait status {status})")
+        ok, value, trace = pickle.loads(payload)
+        if ok:
+            return value
+        value.add_note(f"in the helper process:\n{trace}")
+        raise value
+
+    def close(self) -> None:
+        """Stop the child if its result was not collected (an error or Ctrl-C in the parent)."""
+        if self.pid is not None:
+            try:
+                os.kill(self.pid, signal.SIGKILL)
+            except ProcessLookupError:
+                pass
+            os.waitpid(self.pid, 0)
+            self.pid = None
+        if self.pipe is not None:
+            os.close(self.pipe)
+            self.pipe = None
+
+
+def _outcome(work: Callable[[], object]) -> bytes:
+    """(True, value, "") or (False, exception, traceback) of running *work*, pickled."""
+    try:
+        return pickle.dumps((True, work(), ""), protocol=pickle.HIGHEST_PROTOCOL)
+    except BaseException as exc:  # noqa: BLE001 (everything goes back to the parent)
+        trace = traceback.format_exc()
+        try:
+            payload = pickle.dumps((False, exc, trace), protocol=pickle.HIGHEST_PROTOCOL)
+            pickle.loads(payload)  # some exceptions pickle but cannot be rebuilt
+            return payload
+        except Exception:  # noqa: BLE001 (then as text)
+            return pickle.dumps((False, RuntimeError(f"{type(exc).__name__}: {exc}"), trace))
+
+
+def _floats(values: list[float | None]) -> tuple[bytes, bytes]:
+    """Optional floats as (their bytes, which are None), exactly (-0.0 and infinities too)."""
+    none = [v is None for v in values]
+    if any(none):
+        values = [0.0 if v is None else v for v in values]
+    return array("d", values).tobytes(), bytes(none)
+
+
+def _unfloats(data: bytes, none: bytes) -> list[float | None]:
+    values = array("d")
+    values.frombytes(data)
+    if any(none):
+        return [None if n else v for v, n in zip(values.tolist(), none, strict=True)]
+    return values.tolist()
+
+
+_SEP = "\x00"  # joins a student's texts: no cell, unit or message holds a NUL (the reader refuses them)
+
+
+def pack(grade: StudentGrade) -> tuple:
+    """A grade as a few strings, byte strings and short lists, cheap to pickle (`unpack` undoes it).
+
+    Its results refer to the student's key entries by position and to the answers by their place
+    in the submission; each result's points follow from its key entry and verdict.
+    """
+    sub = grade.submission
+    if sub is None:
+        raise ValueError("expected a graded submission, got none")
+    answers, results = sub.answers, grade.results
+    where = {id(a): i for i, a in enumerate(answers)}
+    texts = [t for a in answers for t in (a.key, a.raw, a.raw_unit, a.unit, a.field, a.issue)]
+    texts += [r.message for r in results]
+    joined = _SEP.join(texts)
+    if texts and joined.count(_SEP) != len(texts) - 1:
+        raise ValueError("expected texts without NUL characters")
+    mistakes = [
+        (i, kind, m.name, m.description, m.value)
+        for i, r in enumerate(results)
+        for kind, m in ((0, r.diagnosis), (1, r.method_diagnosis))
+        if m is not None
+    ]
+    return (
+        (sub.path, sub.student_id, sub.claimed, sub.readable, sub.mtime, sub.class_wide, sub.named, sub.conflicts),
+        tuple(_issue(i) for i in sub.issues),
+        tuple(_issue(i) for i in grade.issues),
+        tuple((p.problem, p.points, p.max_points) for p in grade.problems),
+        len(answers),
+        joined,
+        _floats([a.number for a in answers]),
+        array("q", [a.line for a in answers]).tobytes(),
+        array("q", [-1 if r.answer is None else where[id(r.answer)] for r in results]).tobytes(),
+        bytes([r.correct for r in results]),
+        _floats([r.value for r in results]),
+        _floats([r.rel_error for r in results]),
+        _floats([r.abs_error for r in results]),
+        _floats([r.error for r in results]),
+        mistakes,
+    )
+
+
+def unpack(data: tuple, student: Student, entries: Sequence[KeyEntry]) -> StudentGrade:
+    """The grade `pack` made, for *student* graded against *entries* (their key entries, in order)."""
+    head, sub_issues, issues, problems, n, texts, numbers, lines, at, correct, value, rel, err, error, mistakes = data
+    texts = texts.split(_SEP) if texts or n or entries else []
+    numbers = _unfloats(*numbers)
+    line_numbers = array("q")
+    line_numbers.frombytes(lines)
+    answers = tuple(
+        Answer(texts[6 * i], texts[6 * i + 1], texts[6 * i + 2], numbers[i], texts[6 * i + 3], line, texts[6 * i + 4],
+               texts[6 * i + 5])
+        for i, line in enumerate(line_numbers.tolist())
+    )
+    path, sid, claimed, readable, mtime, class_wide, named, conflicts = head
+    sub = Submission(path, sid, answers, tuple(Issue(*i) for i in sub_issues), claimed, readable, mtime, class_wide,
+                     named, conflicts)
+    which = array("q")
+    which.frombytes(at)
+    if len(which) != len(entries):
+        raise ValueError(f"expected {len(entries)} results for {student.student_id}, got {len(which)}")
+    found: list[list[Mistake | None]] = [[None] * len(entries), [None] * len(entries)]  # diagnosis, of method
+    for i, kind, *m in mistakes:
+        found[kind][i] = Mistake(*m)
+    rebuilt = tuple(
+        AnswerResult(
+            entry, None if a < 0 else answers[a], v, ok == 1, entry.points if ok else 0.0, r, e, diagnosis, message,
+            d, method,
+        )
+        for entry, a, ok, v, r, e, diagnosis, message, d, method in zip(
+            entries, which.tolist(), correct, _unfloats(*value), _unfloats(*rel), _unfloats(*err), found[0],
+            texts[6 * n :], _unfloats(*error), found[1], strict=True,
+        )
+    )
+    scores = tuple(ProblemScore(*p) for p in problems)
+    return StudentGrade(student, sub, rebuilt, scores, tuple(Issue(*i) for i in issues))
+
+
+def _issue(i: Issue) -> tuple:
+    return (i.path, i.line, i.field, i.message)
