@@ -51,7 +51,8 @@ def _pct(x: float) -> str:
 def _band(t: Tolerance, unit: str = "") -> str:
     if t.period:
         return f"±{t.abs:g}°"
-    return f"±{100 * t.rel:g} %" + (f", floor {100 * t.floor:g} % of scale" if t.floor else "")
+    text = f"±{100 * t.rel:g} %" + (f", floor {100 * t.floor:g} % of scale" if t.floor else "")
+    return text + (f", at least ±{t.abs:g} {unit}".rstrip() if t.abs else "")
 
 
 def _ub(x: float) -> str:
@@ -86,10 +87,10 @@ def tolerance_tables(studies: list[ts.Study], bank: dict) -> tuple[str, dict]:
         "",
         "#### Per problem, at the bands the grader applies",
         "",
-        "Each answer's band as the bank loads it (`problem_bank/_tolerances.yaml`, or the file's explicit "
-        "`tolerance:`), scored by `Tolerance.accepts_many`. *Worst upper bound*: the largest one-sided 95 % "
-        "Clopper–Pearson upper bound of the honest false-reject rate over the problem's answers, per model "
-        "(rejected / honest answers of the worst answer).",
+        "Each answer's band as the bank loads it (the band its file states in `constraints.bands`, copied with "
+        "its measurement into `problem_bank/_tolerances.yaml`), scored by `Tolerance.accepts_many`. *Worst upper "
+        "bound*: the largest one-sided 95 % Clopper–Pearson upper bound of the honest false-reject rate over the "
+        "problem's answers, per model (rejected / honest answers of the worst answer).",
         "",
         "| problem | method | variants × students | answers | worst upper bound: 3 s.f. | 4 s.f. | drawing "
         "| all < 0.1 % | answers with an undetectable mistake |",
@@ -108,7 +109,7 @@ def tolerance_tables(studies: list[ts.Study], bank: dict) -> tuple[str, dict]:
             tol = specs[a.key].tolerance
             sc = ts.evaluate(a, tol, ts.basis(st.method))
             rows[a.key] = {
-                "band": _band(tol),
+                "band": _band(tol, a.unit),
                 "upper_bound": {m: sc.bound(m) for m in sc.samples},
                 "rejected": sc.rejected,
                 "samples": sc.samples,
@@ -121,7 +122,7 @@ def tolerance_tables(studies: list[ts.Study], bank: dict) -> tuple[str, dict]:
             if missed:
                 short += 1
                 undetectable.append(
-                    f"| {st.problem.id} | {a.key} | {_band(tol)} | "
+                    f"| {st.problem.id} | {a.key} | {_band(tol, a.unit)} | "
                     + "; ".join(f"{n} ({_pct(r)} caught)" for n, r in sorted(missed.items(), key=lambda kv: kv[1]))
                     + " |"
                 )

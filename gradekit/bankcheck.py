@@ -45,18 +45,21 @@ def _self_grade_failures(key: str, tol: Tolerance, values: np.ndarray, scales: n
     return bad
 
 
-def _band_check(problem, a, sel: np.ndarray, found: dict) -> tuple[float, int, int, int]:
+def _band_check(problem, a, sel: np.ndarray, found: dict) -> tuple[float, int, int, int, int]:
     """How much wider than the band its draws were accepted with (the file's ``constraints.bands``)
     answer *a* is graded (its largest ratio; 0 when never wider); in how many of those variants the
     key is too near zero to grade at the grading band (``gradable``: a sign flip or a zero could be
     accepted, a grading defect); and in how many a declared mistake falls inside the grading band
-    (``distinguish``: honest students win, the mistake is then not detected, as RESULTS reports); and
-    in how many the grading band reaches zero (a blank or zero answer would be accepted: a defect)."""
+    (``distinguish``: honest students win, the mistake is then not detected, as RESULTS reports); in
+    how many the grading band reaches zero (a blank or zero answer would be accepted: a defect); and
+    in how many an answer whose band the file states is graded at another band (one band, stated
+    once: a stale ``_tolerances.yaml`` or an explicit ``tolerance:`` beside it)."""
     c = problem.constraints
     stated, graded = c.band(a)[sel], a.spec.tolerance.bands(a.value[sel], a.scale[sel])
+    other = int((np.abs(graded - stated) > 1e-9 * np.maximum(stated, 1e-300)).sum()) if a.spec.key in c.bands else 0
     wider = graded > stated * (1 + 1e-9)
     if not wider.any():
-        return 0.0, 0, 0, 0
+        return 0.0, 0, 0, 0, other
     ungradable = (a.unit != "deg") & (np.abs(a.value[sel]) < c.gradable * graded)
     zero_ok = (a.unit != "deg") & (np.abs(a.value[sel]) <= graded)
     hidden = np.zeros_like(wider)
@@ -66,13 +69,13 @@ def _band_check(problem, a, sel: np.ndarray, found: dict) -> tuple[float, int, i
             gap = np.abs(a.spec.tolerance.difference(m.value[sel], a.value[sel]))
             hidden |= m.changed[sel] & (gap < c.distinguish_factor * graded)
     return (float(np.max(graded / stated)), int((ungradable & wider).sum()), int((hidden & wider).sum()),
-            int((zero_ok & wider).sum()))
+            int((zero_ok & wider).sum()), other)
 
 
 def check_problem(problem, n: int, class_size: int, echo: Callable[[str], None]) -> bool:
     """Check *n* variants of one problem (drawn and solved in batches); print its summary; True when all pass."""
     failures: list[str] = []
-    wide: dict[str, list] = {}  # answer -> [largest grading/draw band ratio, variants broken]
+    wide: dict[str, list] = {}  # answer -> [largest grading/draw band ratio, variants broken, hidden, zero, other]
     randoms = any(p.random for p in problem.parameters.values())
     count = n if randoms else 1
     try:
@@ -101,6 +104,8 @@ def check_problem(problem, n: int, class_size: int, echo: Callable[[str], None])
             failures.append(f"variant {rows[i]}: virtual-work residual {vw[i]:.2e} > {VW_LIMIT}")
         cond_bad = batch.condition_above(problem.constraints.condition_max)[sel]
         failures.extend(f"variant {rows[i]}: condition number above the bound" for i in np.flatnonzero(cond_bad))
+        raw = next(r[2] for r in vb.rows if r is not None and r[0] is batch)
+        found = mistakes_many(batch, raw) if problem.constraints.distinguish else {}
         for a in batch.answer_list:
             units[a.key] = a.unit
             vals = a.value[sel]
@@ -109,21 +114,25 @@ def check_problem(problem, n: int, class_size: int, echo: Callable[[str], None])
             lo, hi = ranges.get(a.key, (math.inf, -math.inf))
             ranges[a.key] = (min(lo, float(vals.min())), max(hi, float(vals.max())))
             failures.extend(_self_grade_failures(a.key, a.spec.tolerance, vals, a.scale[sel]))
-            if randoms:
-                raw = next(r[2] for r in vb.rows if r is not None and r[0] is batch)
-                found = mistakes_many(batch, raw) if problem.constraints.distinguish else {}
-                ratio, broken, hidden, zero = _band_check(problem, a, sel, found)
-                w = wide.setdefault(a.key, [0.0, 0, 0, 0])
-                w[0], w[1], w[2], w[3] = max(w[0], ratio), w[1] + broken, w[2] + hidden, w[3] + zero
-    # A grading band wider than the draws' band is the tolerance study's verdict that honest work
-    # needs it (honest students win, issue 16): reported below with what it costs, not a failure,
-    # unless it reaches zero (a zero answer accepted). Re-drawing the bank at the measured bands
-    # would change students' numbers: a deliberate revision.
+            ratio, broken, hidden, zero, other = _band_check(problem, a, sel, found)
+            w = wide.setdefault(a.key, [0.0, 0, 0, 0, 0])
+            w[0], w[1], w[2], w[3], w[4] = max(w[0], ratio), w[1] + broken, w[2] + hidden, w[3] + zero, w[4] + other
+    # Each band is stated once, in the problem file: grading at another band is a failure (a stale
+    # _tolerances.yaml, or an explicit tolerance: beside the stated band). An answer with an explicit
+    # tolerance: and no stated band may be graded wider than its draws were judged by (honest
+    # students win, issue 16): reported below with what it costs, a failure only when it reaches
+    # zero (a zero answer accepted).
     failures.extend(
         f"{key}: graded at a band wider than the band its draws were accepted with (constraints.bands), "
         f"reaching zero in {zero} variants (a zero answer would be accepted)"
-        for key, (_ratio, _broken, _hidden, zero) in wide.items()
+        for key, (_ratio, _broken, _hidden, zero, _other) in wide.items()
         if zero
+    )
+    failures.extend(
+        f"{key}: graded at a band other than the one the file states (constraints.bands) in {other} variants: "
+        "state it once (no explicit tolerance: beside it) and re-run benchmarks/derive_tolerances.py"
+        for key, (*_, other) in wide.items()
+        if other
     )
     if problem.published:  # the published variant reproduces every printed value at its precision
         try:
@@ -149,7 +158,7 @@ def check_problem(problem, n: int, class_size: int, echo: Callable[[str], None])
     )
     for key, (lo, hi) in ranges.items():
         echo(f"    {key:<14} {fmt(lo, 4):>12} .. {fmt(hi, 4):<12} {units.get(key, '')}")
-    for key, (ratio, broken, hidden, _zero) in wide.items():
+    for key, (ratio, broken, hidden, _zero, _other) in wide.items():
         if ratio:
             costs = [f"the key within {problem.constraints.gradable:g} grading bands of zero in {broken} variants "
                      "(a sign flip can be accepted)"] if broken else []

@@ -42,10 +42,18 @@ def answer_kind(of: str, unit: str) -> str:
 
 
 def from_row(row: dict) -> Tolerance:
-    """A band of the generated table: ``{deg}`` for angles, else ``{rel, floor}``."""
+    """A band of the generated table: ``{deg}`` for angles, else ``{rel, floor}`` and an optional
+    ``abs`` (in the answer's unit)."""
     if "deg" in row:
         return Tolerance("relative", 0.0, float(row["deg"]), period=360.0)
-    return Tolerance("relative", float(row["rel"]), 0.0, floor=float(row["floor"]))
+    return Tolerance("relative", float(row["rel"]), float(row.get("abs", 0.0)), floor=float(row.get("floor", 0.0)))
+
+
+def to_row(tol: Tolerance) -> dict:
+    """`from_row`'s inverse: ``{deg}`` for an angle band, else ``{rel, floor}`` (and ``abs`` when set)."""
+    if tol.period:
+        return {"deg": tol.abs}
+    return {"rel": tol.rel, "floor": tol.floor, **({"abs": tol.abs} if tol.abs else {})}
 
 
 @functools.lru_cache(maxsize=1)

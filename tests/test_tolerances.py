@@ -4,6 +4,7 @@ bands the sampler judges draws by (stated in the problem file, never the measure
 from __future__ import annotations
 
 import math
+import re
 
 import numpy as np
 import pytest
@@ -16,8 +17,8 @@ from gradekit.cli import main
 from gradekit.errors import GradekitError
 from gradekit.keys import Tolerance
 from gradekit.pipeline import published_values, solve_problem
-from gradekit.sampling import sample_many
-from gradekit.tolerances import answer_kind, defaults, from_row
+from gradekit.sampling import derive_seed, sample_many
+from gradekit.tolerances import answer_kind, defaults, from_row, to_row
 
 EX51 = "problem_bank/ch5_ex5_1_slider_crank_static.yaml"
 
@@ -60,15 +61,21 @@ def test_answer_kinds():
 
 def test_measured_defaults_apply_and_explicit_tolerances_win(tmp_path):
     text = open(EX51, encoding="utf-8").read()
+    stated_t = re.search(r"\n    T: \{[^}]*\}", text)
+    assert stated_t
+    text = text.replace(stated_t.group(0), "")  # T states no band
     measured = tmp_path / "measured"
     measured.mkdir()
     (measured / "ex51.yaml").write_text(text, encoding="utf-8")
     (measured / "_tolerances.yaml").write_text(
         "ch5-ex5-1:\n  F23: {rel: 0.0123, floor: 0.004, fr: 0.0, det: 100.0}\n", encoding="utf-8"
     )
-    t = {a.key: a.tolerance for a in load_problem(measured / "ex51.yaml").answers}
+    p = load_problem(measured / "ex51.yaml")
+    t = {a.key: a.tolerance for a in p.answers}
     assert (t["F23"].rel, t["F23"].floor) == (0.0123, 0.004)  # the row beside the file
-    assert t["T"] == defaults()[("graphical", "torque")]  # no row: the per-kind default
+    assert t["T"] == defaults()[("graphical", "torque")]  # no row, no stated band: the per-kind default
+    f03 = p.constraints.bands["F03"]
+    assert (t["F03"].rel, t["F03"].abs, t["F03"].floor) == (f03.rel, f03.abs, f03.floor)  # no row: the stated band
     explicit = text.replace(
         'description: "connecting rod force at the piston pin C, magnitude"}',
         'description: "connecting rod force at the piston pin C, magnitude", tolerance: {rel: 0.002}}',
@@ -127,10 +134,11 @@ def test_re_deriving_tolerances_changes_no_students_numbers(tmp_path):
 
 def test_stated_bands_are_validated(tmp_path):
     text = open(EX53, encoding="utf-8").read()
+    stated = re.search(r"^    T: \{[^}]*\}$", text, re.M).group(0)  # T's band as the file states it
     for bad, where in (
-        ("    T: {rel: 0.025, floor: 0.03}", "    Tx: {rel: 0.025, floor: 0.03}"),
-        ("    T: {rel: 0.025, floor: 0.03}", "    T: {rel: 2.5, floor: 0.03}"),
-        ("    T: {rel: 0.025, floor: 0.03}", "    T: {rel: 0.025, deg: 1}"),
+        (stated, stated.replace("    T:", "    Tx:")),
+        (stated, "    T: {rel: 2.5, floor: 0.03}"),
+        (stated, "    T: {rel: 0.025, deg: 1}"),
     ):
         assert bad in text
         f = tmp_path / "bad.yaml"
@@ -153,3 +161,30 @@ def test_bank_check_fails_an_answer_graded_wider_than_its_draws_were_accepted_wi
     assert "T: graded at a band wider than the band its draws were accepted with" in r.output
     assert "a zero answer would be accepted" in r.output
     assert np.isfinite(load_problem(f).constraints.bands["T"].rel)
+
+
+def test_a_row_keeps_an_absolute_part():
+    band = Tolerance("relative", 0.1, 4.0, floor=0.05)
+    assert from_row(to_row(band)) == band and to_row(band) == {"rel": 0.1, "floor": 0.05, "abs": 4.0}
+    assert from_row(to_row(Tolerance("relative", 0.0, 1.25, period=360.0))).abs == 1.25
+
+
+ZERO_VARIANTS = 200
+
+
+@pytest.mark.parametrize("pid", sorted(load_bank()))
+def test_no_band_admits_a_zero_answer(pid):
+    """Across drawn variants no grading band reaches zero: the sampler keeps only keys at least
+    `gradable` stated bands from zero, so neither a zero nor a blank-as-zero answer is accepted."""
+    p = load_bank()[pid]
+    randoms = any(q.random for q in p.parameters.values())
+    vb = sample_many(p, [derive_seed("MEG373", "zero", f"s{i}", pid) for i in range(ZERO_VARIANTS if randoms else 1)])
+    assert vb.ok.all()
+    for batch, rows in vb.by_batch():
+        sel = np.asarray(rows)
+        for a in batch.answer_list:
+            if a.unit == "deg":
+                continue
+            value, scale = a.value[sel], a.scale[sel]
+            assert (a.spec.tolerance.bands(value, scale) < np.abs(value)).all(), (a.key, value)
+            assert not a.spec.tolerance.accepts_many(np.zeros_like(value), value, scale).any(), a.key

@@ -1,8 +1,13 @@
-"""The measured tolerance table of a bank folder (``_tolerances.yaml``, written by
-benchmarks/derive_tolerances.py) and how it gives each answer its default tolerance.
+"""The grading band of every answer: stated once in the problem file, written out with its measurement.
 
-Generated data: it sets how answers are graded, never what a student's numbers are (the sampler
-reads the bands the problem file states)."""
+A problem states each answer's band in ``constraints.bands`` (the band the sampler judges its draws
+by: ``gradable``, ``distinguish``), or gives the answer an explicit ``tolerance:``. The bank folder's
+``_tolerances.yaml`` (written by benchmarks/derive_tolerances.py) copies each stated band beside its
+measured honest false-reject bound and mistake detection, and holds the per-kind defaults
+(`gradekit.tolerances`) for answers that state none. Grading applies the table's row, which is the
+stated band unless the table is stale (`gradekit bank check` fails then); the sampler reads the
+file alone, so re-deriving the table never changes a student's numbers.
+"""
 
 from __future__ import annotations
 
@@ -12,6 +17,7 @@ from pathlib import Path
 from gradekit.bank.model import Problem
 from gradekit.errors import ProblemError
 from gradekit.keys import Tolerance
+from gradekit.tolerances import from_row
 
 MEASURED = "_tolerances.yaml"
 _MEASURED_CACHE: dict[Path, dict] = {}
@@ -32,22 +38,26 @@ def measured_tolerances(folder: Path) -> dict:
     return _MEASURED_CACHE[f]
 
 
+def _with_band(tol: Tolerance, band: Tolerance) -> Tolerance:
+    """*band*'s widths with *tol*'s mode and significant figures (angles keep their period)."""
+    period = (tol.period or 360.0) if band.period else tol.period
+    return replace(band, mode=tol.mode, sigfigs=tol.sigfigs, period=period)
+
+
 def apply_measured(problem: Problem, table: dict) -> Problem:
-    """Give every answer without an explicit ``tolerance:`` its measured default."""
+    """Give every answer without an explicit ``tolerance:`` its band: the table's row (the band the
+    file states, with its measurement), else the file's ``constraints.bands``, else it keeps the
+    per-kind default."""
     rows = table.get(problem.id) or {}
-    if not rows:
-        return problem
     answers = []
     for a in problem.answers:
         row = rows.get(a.key)
-        if a.tolerance_explicit or not isinstance(row, dict):
+        if a.tolerance_explicit:
             answers.append(a)
-            continue
-        if "deg" in row:
-            tol = Tolerance("relative", 0.0, float(row["deg"]), a.tolerance.sigfigs, 0.0, a.tolerance.period or 360.0)
+        elif isinstance(row, dict):
+            answers.append(replace(a, tolerance=_with_band(a.tolerance, from_row(row))))
+        elif a.key in problem.constraints.bands:
+            answers.append(replace(a, tolerance=_with_band(a.tolerance, problem.constraints.bands[a.key])))
         else:
-            tol = Tolerance(
-                "relative", float(row["rel"]), 0.0, a.tolerance.sigfigs, float(row["floor"]), a.tolerance.period
-            )
-        answers.append(replace(a, tolerance=tol))
+            answers.append(a)
     return replace(problem, answers=tuple(answers))
