@@ -15,6 +15,7 @@ import pickle
 import signal
 import threading
 import traceback
+import warnings
 from array import array
 from collections.abc import Callable, Sequence
 
@@ -40,7 +41,7 @@ def cores() -> int:
 
 
 def available() -> bool:
-    """A helper process can be forked safely here: POSIX fork, no other thread, two cores or more."""
+    """A helper process can be forked safely here: POSIX fork, no other Python thread, two cores or more."""
     return hasattr(os, "fork") and threading.active_count() == 1 and cores() >= 2
 
 
@@ -79,7 +80,11 @@ class Forked:
         self.pipe: int | None = None
         read, write = os.pipe()
         try:
-            pid = os.fork()
+            with warnings.catch_warnings():
+                # Python 3.12+ warns of fork in a process with threads: numpy's BLAS keeps idle
+                # workers, which hold nothing the child needs (it does no linear algebra).
+                warnings.simplefilter("ignore", DeprecationWarning)
+                pid = os.fork()
         except OSError:
             os.close(read)
             os.close(write)
