@@ -154,11 +154,20 @@ def test_ctrl_c_while_the_helper_works_stops_it_and_leaves_no_partial_run(
 ) -> None:
     _helper(monkeypatch, 0.6)
     _raise_in(monkeypatch, "feedback_pages", False, KeyboardInterrupt())
+    started: list[int] = []
+
+    class Watched(parallel.Forked):
+        def __init__(self, work) -> None:
+            super().__init__(work)
+            started.append(self.pid)
+
+    monkeypatch.setattr(batch, "Forked", Watched)
     with pytest.raises(KeyboardInterrupt):
         _run(subs, tmp_path / "out")
     assert sorted(p.name for p in tmp_path.iterdir()) == []
+    assert len(started) == 1 and started[0] is not None
     with pytest.raises(ChildProcessError):  # the helper was stopped and reaped
-        os.waitpid(-1, os.WNOHANG)
+        os.waitpid(started[0], os.WNOHANG)
 
 
 def test_a_packed_grade_unpacks_to_the_same_grade(subs: Path) -> None:
