@@ -167,6 +167,7 @@ def grade(
     reveal: bool = False,
     bank: str | Path | None = None,
     recompute_keys: bool = False,
+    carry_forward: bool = False,
     warn=None,
     progress=None,
 ):
@@ -177,15 +178,19 @@ def grade(
     re-sampled, and a later change of the bank, the tolerance table or gradekit changes no grade.
     *recompute_keys* grades against keys recomputed from the current bank instead (with the
     manifest's re-draws). *warn* receives each warning line; ignored when None. *progress* is
-    called with (problems done, problems) while keys are derived for the class.
+    called with (problems done, problems) while keys are derived for the class. *carry_forward*
+    gives carried-forward credit on every problem whose assignment entry does not turn it off
+    (``carry_forward:`` in the assignment turns it on without the option).
     """
     from gradekit.grading.batch import gc_paused
 
     with gc_paused():  # the class's keys and answers: see gc_paused
-        return _grade(assignment, roster, submissions, out, manifest, reveal, bank, recompute_keys, warn, progress)
+        return _grade(assignment, roster, submissions, out, manifest, reveal, bank, recompute_keys, carry_forward,
+                      warn, progress)
 
 
-def _grade(assignment, roster, submissions, out, manifest, reveal, bank, recompute_keys, warn, progress):
+def _grade(assignment, roster, submissions, out, manifest, reveal, bank, recompute_keys, carry_forward, warn,
+           progress):
     from gradekit.assignment import check_manifest, class_keys, frozen_keys, load_assignment, redraws_from_manifest
     from gradekit.grading.batch import grade_batch
     from gradekit.roster import read_roster
@@ -223,9 +228,18 @@ def _grade(assignment, roster, submissions, out, manifest, reveal, bank, recompu
             if progress is not None:
                 progress(len(done), len(asg.items))
 
-        keys, _ = class_keys(asg, ids, redraws, progress=step)
+        keys, variants = class_keys(asg, ids, redraws, progress=step)
+    carry = None
+    credit = asg.carry(forced=carry_forward)
+    if any(credit.values()):
+        from gradekit.grading.carried import CarryForward
+
+        if frozen is not None:  # the variants behind the frozen keys (checked against them per problem)
+            variants = class_keys(asg, ids, redraws, with_mistakes=False, need_keys=False)[1]
+        carry = CarryForward(variants, credit)
+        carry.check(keys, say)
     titles = {it.label: f"{it.label}: {it.problem.title}" for it in asg.items}
     return grade_batch(
         keys, students, Path(submissions), Path(out), assignment_title=asg.title, reveal=reveal, problem_titles=titles,
-        hint=asg.feedback,
+        hint=asg.feedback, carry=carry,
     )

@@ -35,6 +35,9 @@ class Item:
     tolerance: dict | None = None  # fields given for every answer, e.g. {"rel": 0.05}
     tolerances: dict[str, dict] = dataclasses.field(default_factory=dict)  # per answer key
     points_step: float | None = None  # answer points in multiples of this (default: 0.5, finer if needed)
+    # carried-forward credit of a later answer consistent with the student's own wrong earlier ones:
+    # None when the problem does not say (the assignment's, or --carry-forward's), 0 when off
+    carry_credit: float | None = None
 
 
 @dataclass(frozen=True)
@@ -53,6 +56,16 @@ class Assignment:
     # what feedback without --reveal says of a wrong answer: "direction" (too high/low, outside
     # the tolerance) or "band" (and a coarse band in multiples of the tolerance)
     feedback: str = "direction"
+    carry_credit: float | None = None  # the problems' default carry-forward credit (see Item)
+
+    def carry(self, forced: bool = False) -> dict[str, float]:
+        """Each item's carry-forward credit (0: not carried). *forced* (``--carry-forward``) turns it
+        on at full credit, or the assignment's, for every problem that does not say otherwise."""
+        out = {}
+        for it in self.items:
+            credit = it.carry_credit if it.carry_credit is not None else self.carry_credit
+            out[it.label] = credit if credit is not None else (1.0 if forced else 0.0)
+        return out
 
 
 def load_assignment(path: Path | str, bank: Path | str | None = None) -> Assignment:
@@ -64,7 +77,7 @@ def load_assignment(path: Path | str, bank: Path | str | None = None) -> Assignm
         data,
         "",
         ("title", "course", "salt", "problems"),
-        ("term", "due", "instructions", "submission", "bank", "redraws", "feedback"),
+        ("term", "due", "instructions", "submission", "bank", "redraws", "feedback", "carry_forward"),
     )
     problems = load_bank(bank or (path.parent / data["bank"] if isinstance(data.get("bank"), str) else None))
     items = []
@@ -75,7 +88,8 @@ def load_assignment(path: Path | str, bank: Path | str | None = None) -> Assignm
         node = []
     for i, it in enumerate(node):
         w = f"problems[{i}]"
-        m = c.mapping(it, w, ("id", "points"), ("label", "tolerance", "tolerances", "points_step"), node, i)
+        m = c.mapping(it, w, ("id", "points"), ("label", "tolerance", "tolerances", "points_step", "carry_forward"),
+                      node, i)
         if m is None:
             continue
         pid = m.get("id")
@@ -95,7 +109,8 @@ def load_assignment(path: Path | str, bank: Path | str | None = None) -> Assignm
         for k in c.mapping(tm, f"{w}.tolerances", (), tuple(sorted(keys)), m, "tolerances") or {}:
             per[k] = _override(c, tm[k], f"{w}.tolerances.{k}", tm)
         step = c.number(m, "points_step", f"{w}.points_step", 0.0, positive=True) if "points_step" in m else None
-        items.append(Item(label, prob, pts, tol, per, step or None))
+        carry = _carry(c, m, "carry_forward", f"{w}.carry_forward") if "carry_forward" in m else None
+        items.append(Item(label, prob, pts, tol, per, step or None, carry))
     redraws: dict[str, dict[str, int]] = {}
     rd = data.get("redraws", {})
     for sid in (
@@ -114,6 +129,7 @@ def load_assignment(path: Path | str, bank: Path | str | None = None) -> Assignm
     feedback = data.get("feedback", "direction")
     if feedback not in ("direction", "band"):
         c.err(data, "feedback", "feedback", f"expected direction or band, got {feedback!r}")
+    carry = _carry(c, data, "carry_forward", "carry_forward") if "carry_forward" in data else None
     if c.errors:
         raise ErrorList(c.errors)
     return Assignment(
@@ -129,7 +145,24 @@ def load_assignment(path: Path | str, bank: Path | str | None = None) -> Assignm
         hashlib.sha256(path.read_bytes()).hexdigest(),
         redraws,
         str(feedback),
+        carry,
     )
+
+
+def _carry(c: _Collector, node, key: str, where: str) -> float | None:
+    """``carry_forward: true | false | {credit: 0.5}`` as the credit of a carried answer (0: off)."""
+    v = node[key]
+    if isinstance(v, bool):
+        return 1.0 if v else 0.0
+    m = c.mapping(v, where, ("credit",), (), node, key) if isinstance(v, dict) else None
+    if m is None:
+        if not isinstance(v, dict):
+            c.err(node, key, where, f"expected true, false or a mapping {{credit: 0.5}}, got {v!r}")
+        return None
+    credit = c.number(m, "credit", f"{where}.credit", 1.0, positive=True)
+    if credit is not None and credit > 1:
+        c.err(m, "credit", f"{where}.credit", f"expected a fraction of the points from 0 to 1, got {credit}")
+    return credit
 
 
 def _override(c: _Collector, node, where: str, parent) -> dict:

@@ -243,10 +243,16 @@ def bank_check(ids: tuple[str, ...], variants: int, class_size: int, bank: str |
     is_flag=True,
     help="With --manifest: grade against keys recomputed from the current bank, not the keys frozen at generation.",
 )
+@click.option(
+    "--carry-forward",
+    is_flag=True,
+    help="Credit a later answer that is right from the student's own wrong earlier ones (error carried forward), "
+    "on every problem the assignment does not set carry_forward: false.",
+)
 @_bank_opt
 def grade(
     assignment: str, roster: str, submissions: str, out: str, manifest: str | None, reveal: bool,
-    recompute_keys: bool, bank: str | None,
+    recompute_keys: bool, carry_forward: bool, bank: str | None,
 ) -> None:
     """Grade every submission in SUBMISSIONS against keys recomputed from ASSIGNMENT and ROSTER."""
     from gradekit import api
@@ -266,7 +272,8 @@ def grade(
 
     res = api.grade(
         assignment, roster, submissions, out, manifest=manifest, reveal=reveal, bank=bank,
-        recompute_keys=recompute_keys, warn=lambda note: log.warning("warning: %s", note), progress=progress,
+        recompute_keys=recompute_keys, carry_forward=carry_forward, warn=lambda note: log.warning("warning: %s", note),
+        progress=progress,
     )
     log.info("graded %d of %d students; %d integrity flag(s); results in %s", res.graded, len(res.grades),
              len(res.flags), out)

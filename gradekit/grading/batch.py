@@ -346,6 +346,7 @@ def grade_batch(
     problem_titles: Mapping[str, str] | None = None,
     histogram: bool = True,
     hint: str = "direction",
+    carry=None,
 ) -> BatchResult:
     """Grade every submission in a folder and write grades, LMS imports, feedback and a report.
 
@@ -369,6 +370,9 @@ def grade_batch(
         problem_titles: display names per ``KeyEntry.problem`` (defaults to the problem id).
         histogram: draw ``histogram.png`` (matplotlib).
         hint: what feedback without *reveal* says of a wrong answer: ``direction`` or ``band``.
+        carry: carried-forward credit (`gradekit.grading.carried.CarryForward`), applied to each
+            grade before its feedback is written; grades.csv then counts carried answers and the
+            report has a section on them.
 
     Returns:
         The grades, every file's fate, the integrity flags and the files written.
@@ -378,7 +382,8 @@ def grade_batch(
             output folder cannot be used.
     """
     with gc_paused():
-        return _grade_batch(keys, students, submissions, out, assignment_title, reveal, problem_titles, histogram, hint)
+        return _grade_batch(keys, students, submissions, out, assignment_title, reveal, problem_titles, histogram, hint,
+                            carry)
 
 
 def _grade_batch(
@@ -391,6 +396,7 @@ def _grade_batch(
     problem_titles: Mapping[str, str] | None,
     histogram: bool,
     hint: str,
+    carry=None,
 ) -> BatchResult:
     submissions, out = Path(submissions), Path(out)
     if not keys:
@@ -420,6 +426,8 @@ def _grade_batch(
 
         def graded(student: Student, chosen: Mapping[str, Submission]) -> StudentGrade:
             g = grade_student(student, entries.get(student.student_id, []), chosen.get(student.student_id))
+            if carry is not None:
+                g = carry.apply(g)
             md, page = feedback_pages(g, titles, assignment_title, reveal, hint)
             stem = names[student.student_id]
             write_staged(feedback / f"{stem}.md", md)
@@ -453,7 +461,7 @@ def _grade_batch(
         intake_files = tuple([record[i] for i in range(len(files))] + ignored)
         conflicts = _conflicts(grades, entries, students)
         flags = conflicts + find_copies(grades, keys)
-        write_grades(root / "grades.csv", grades, problems, titles)
+        write_grades(root / "grades.csv", grades, problems, titles, carried=carry is not None)
         write_canvas(root / "canvas.csv", grades, assignment_title)
         write_moodle(root / "moodle.csv", grades, assignment_title)
         image = None
@@ -463,7 +471,8 @@ def _grade_batch(
             image = "histogram.png"
         listed = [(f.path, f.status, f.detail) for f in intake_files]
         report = report_markdown(
-            assignment_title=assignment_title, grades=grades, files=listed, flags=flags, histogram=image
+            assignment_title=assignment_title, grades=grades, files=listed, flags=flags, histogram=image,
+            carried=carry is not None,
         )
         write_text(root / "report.md", _first_section(report, _attention(grades, conflicts, intake_files)))
         written = stage.commit(

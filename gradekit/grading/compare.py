@@ -63,7 +63,9 @@ class AnswerResult:
     nothing without being wrong (missing, unreadable, wrong kind of unit). ``diagnosis`` is the
     first catalogued mistake that explains a wrong answer (for the instructor, and for feedback
     with ``--reveal``); ``method_diagnosis`` the first mistake of method (`METHOD_MISTAKES`) that
-    does, the only one feedback without ``--reveal`` names.
+    does, the only one feedback without ``--reveal`` names. ``carried`` is the `gradekit.carry.Carried`
+    a wrong answer matched when graded with carried-forward credit (its ``points`` are then the
+    carried share).
     """
 
     entry: KeyEntry
@@ -77,11 +79,12 @@ class AnswerResult:
     message: str = ""
     error: float | None = None  # answer − key in the key's unit, wrapped at 360° for an angle
     method_diagnosis: Mistake | None = None
+    carried: object | None = None  # gradekit.carry.Carried
 
     def __init__(
         self, entry: KeyEntry, answer: Answer | None, value: float | None, correct: bool, points: float,
         rel_error: float | None, abs_error: float | None, diagnosis: Mistake | None = None, message: str = "",
-        error: float | None = None, method_diagnosis: Mistake | None = None,
+        error: float | None = None, method_diagnosis: Mistake | None = None, carried: object | None = None,
     ) -> None:
         # The fields, in order, written directly (as `Answer.__init__`: one verdict per answer of the class).
         fields = self.__dict__
@@ -96,6 +99,7 @@ class AnswerResult:
         fields["message"] = message
         fields["error"] = error
         fields["method_diagnosis"] = method_diagnosis
+        fields["carried"] = carried
 
     @property
     def angle(self) -> bool:
@@ -279,10 +283,16 @@ def grade_student(
                         f"expected one of your keys, got {answer.key!r} (not in your assignment)",
                     )
                 )
+    scores = problem_scores(results)
+    return StudentGrade(student, submission, tuple(results), scores, tuple(issues))
+
+
+def problem_scores(results: Sequence[AnswerResult]) -> tuple[ProblemScore, ...]:
+    """Points earned and available per problem (in the order the problems first appear): the sum of
+    the points of its answers' verdicts."""
     problems: dict[str, list[float]] = {}
     for result in results:
         earned_max = problems.setdefault(result.entry.problem, [0.0, 0.0])
         earned_max[0] += result.points
         earned_max[1] += result.entry.points
-    scores = tuple(ProblemScore(p, pts, mx) for p, (pts, mx) in problems.items())
-    return StudentGrade(student, submission, tuple(results), scores, tuple(issues))
+    return tuple(ProblemScore(p, pts, mx) for p, (pts, mx) in problems.items())

@@ -30,24 +30,35 @@ def points(value: float) -> float | int:
 
 
 def write_grades(
-    path: Path, grades: Sequence[StudentGrade], problems: Sequence[str], titles: Mapping[str, str]
+    path: Path, grades: Sequence[StudentGrade], problems: Sequence[str], titles: Mapping[str, str],
+    carried: bool = False,
 ) -> None:
-    """``student_id,name``, points per problem, ``total,max,percent``; one row per student."""
+    """``student_id,name``, points per problem, ``total,max,percent``; one row per student. With
+    *carried* (grading with carried-forward credit), a last column counts each student's answers
+    credited as carried forward."""
     header = ["student_id", "name", *(titles.get(p, p) for p in problems), "total", "max", "percent"]
+    if carried:
+        header.append("carried")
     rows = []
     for g in grades:
         earned = {p.problem: p.points for p in g.problems}
-        rows.append(
-            [
-                g.student.student_id,
-                one_line(g.student.name),
-                *(points(earned.get(p, 0.0)) for p in problems),
-                points(g.total),
-                points(g.max_points),
-                round(g.percent, 2),
-            ]
-        )
+        row = [
+            g.student.student_id,
+            one_line(g.student.name),
+            *(points(earned.get(p, 0.0)) for p in problems),
+            points(g.total),
+            points(g.max_points),
+            round(g.percent, 2),
+        ]
+        if carried:
+            row.append(sum(r.carried is not None for r in g.results))
+        rows.append(row)
     write_csv(path, header, rows)
+
+
+def credit_text(credit: float) -> str:
+    """``full credit`` or ``credit 50 %`` (a carried answer's share of its points)."""
+    return "full credit" if credit >= 1.0 - 1e-9 else f"credit {100 * credit:.3g} %"
 
 
 def write_canvas(path: Path, grades: Sequence[StudentGrade], assignment_title: str) -> None:
@@ -158,10 +169,16 @@ def _answer_cells(r: AnswerResult, reveal: bool, hint: str) -> tuple[str, ...]:
         verdict = "right"
     elif r.value is None:
         verdict = "not graded"
+    elif r.carried is not None:
+        verdict = "carried forward"
     else:
         verdict = "wrong"
     off = _off(r, unit, reveal, hint) if not r.correct and r.error is not None else ""
-    diagnosis = _likely(r, reveal, verdict == "wrong")
+    if r.carried is not None:  # the student's own values only: safe without --reveal
+        share = r.points / entry.points if entry.points else 1.0
+        diagnosis = f"{r.carried.describe()}; carried forward ({credit_text(share)})"
+    else:
+        diagnosis = _likely(r, reveal, verdict == "wrong")
     points = _points_cell(r.points, entry.points)
     if reveal:
         correct = f"{fmt(entry.value, 6)} {unit} ({entry.tolerance.describe()})"
@@ -247,7 +264,7 @@ def _md_cell(text: str) -> str:
 
 _MD = _Memo(_md_cell)
 _HTML = _Memo(html.escape)
-_CSS_CLASS = {"right": "right", "wrong": "wrong", "not graded": "not"}
+_CSS_CLASS = {"right": "right", "wrong": "wrong", "not graded": "not", "carried forward": "carried"}
 
 
 def _rows(r: AnswerResult, reveal: bool, hint: str) -> tuple[str, str]:
@@ -282,7 +299,7 @@ def _rows(r: AnswerResult, reveal: bool, hint: str) -> tuple[str, str]:
 _CSS = (
     "body{font-family:sans-serif;max-width:60em;margin:2em auto}"
     "table{border-collapse:collapse}td,th{border:1px solid #bbb;padding:.2em .5em}"
-    ".right{background:#e6f4e6}.wrong{background:#fbe9e9}.not{background:#f3f3f3}"
+    ".right{background:#e6f4e6}.wrong{background:#fbe9e9}.not{background:#f3f3f3}.carried{background:#fdf5dc}"
 )
 
 
@@ -378,8 +395,10 @@ def report_markdown(
     files: Sequence[tuple[str, str, str]],
     flags: Sequence[IntegrityFlag],
     histogram: str | None,
+    carried: bool = False,
 ) -> str:
-    """The instructor's report: summary, item analysis, integrity flags, file accounting."""
+    """The instructor's report: summary, item analysis, (answers carried forward,) integrity flags,
+    file accounting."""
     submitted = [g for g in grades if g.submission is not None]
     percents = [g.percent for g in submitted]
     out = [f"# {_md_cell(assignment_title)}: grading report", ""]
@@ -416,6 +435,8 @@ def report_markdown(
             f"| {_md_cell(key)} | {share:.0f} % ({right}/{len(results)}) | {answered} | {_md_cell(common)} |"
         )
     out.append("")
+    if carried:
+        out += _carried_section(submitted)
     out += ["## Integrity flags", ""]
     out += [f"- {_md_cell(f.describe())}" for f in flags] or ["None."]
     out += ["", "## Files", "", "| File | Status | Detail |", "|---|---|---|"]
@@ -428,6 +449,23 @@ def report_markdown(
     out += [f"- {_md_cell(sid)}: {_md_cell(str(i))}" for sid, i in messages] or ["None."]
     out.append("")
     return "\n".join(out)
+
+
+def _carried_section(submitted: Sequence[StudentGrade]) -> list[str]:
+    """How many answers earned carried-forward credit, of how many students, per answer."""
+    per: Counter[str] = Counter()
+    students = 0
+    for g in submitted:
+        mine = [r.entry.key for r in g.results if r.carried is not None]
+        per.update(mine)
+        students += bool(mine)
+    out = ["## Carried forward", ""]
+    if not per:
+        return out + ["No answer was carried forward.", ""]
+    out += [f"{sum(per.values())} answers of {students} students earned credit as consistent with the "
+            "student's own earlier (wrong) answers.", "", "| Answer | Carried |", "|---|---|"]
+    out += [f"| {_md_cell(k)} | {n} |" for k, n in per.items()]
+    return out + [""]
 
 
 def write_text(path: Path, text: str) -> None:

@@ -18,6 +18,7 @@ import traceback
 import warnings
 from array import array
 from collections.abc import Callable, Sequence
+from dataclasses import replace
 
 from gradekit.grading.compare import AnswerResult, ProblemScore, StudentGrade
 from gradekit.grading.reader import Answer, Issue, Submission
@@ -177,7 +178,8 @@ def pack(grade: StudentGrade) -> tuple:
     """A grade as a few strings, byte strings and short lists, cheap to pickle (`unpack` undoes it).
 
     Its results refer to the student's key entries by position and to the answers by their place
-    in the submission; each result's points follow from its key entry and verdict.
+    in the submission; each result's points follow from its key entry and verdict (or, for an
+    answer carried forward, travel with its `Carried` record).
     """
     sub = grade.submission
     if sub is None:
@@ -195,6 +197,7 @@ def pack(grade: StudentGrade) -> tuple:
         for kind, m in ((0, r.diagnosis), (1, r.method_diagnosis))
         if m is not None
     ]
+    carried = [(i, r.points, r.carried) for i, r in enumerate(results) if r.carried is not None]
     return (
         (sub.path, sub.student_id, sub.claimed, sub.readable, sub.mtime, sub.class_wide, sub.named, sub.conflicts),
         tuple(_issue(i) for i in sub.issues),
@@ -211,12 +214,14 @@ def pack(grade: StudentGrade) -> tuple:
         _floats([r.abs_error for r in results]),
         _floats([r.error for r in results]),
         mistakes,
+        carried,
     )
 
 
 def unpack(data: tuple, student: Student, entries: Sequence[KeyEntry]) -> StudentGrade:
     """The grade `pack` made, for *student* graded against *entries* (their key entries, in order)."""
-    head, sub_issues, issues, problems, n, texts, numbers, lines, at, correct, value, rel, err, error, mistakes = data
+    head, sub_issues, issues, problems, n, texts, numbers, lines, at, correct, value, rel, err, error = data[:14]
+    mistakes, carried = data[14:]
     texts = texts.split(_SEP) if texts or n or entries else []
     numbers = _unfloats(*numbers)
     line_numbers = array("q")
@@ -236,7 +241,7 @@ def unpack(data: tuple, student: Student, entries: Sequence[KeyEntry]) -> Studen
     found: list[list[Mistake | None]] = [[None] * len(entries), [None] * len(entries)]  # diagnosis, of method
     for i, kind, *m in mistakes:
         found[kind][i] = Mistake(*m)
-    rebuilt = tuple(
+    rebuilt = [
         AnswerResult(
             entry, None if a < 0 else answers[a], v, ok == 1, entry.points if ok else 0.0, r, e, diagnosis, message,
             d, method,
@@ -245,9 +250,11 @@ def unpack(data: tuple, student: Student, entries: Sequence[KeyEntry]) -> Studen
             entries, which.tolist(), correct, _unfloats(*value), _unfloats(*rel), _unfloats(*err), found[0],
             texts[6 * n :], _unfloats(*error), found[1], strict=True,
         )
-    )
+    ]
+    for i, points, c in carried:  # carried-forward credit: the points and the record behind them
+        rebuilt[i] = replace(rebuilt[i], points=points, carried=c)
     scores = tuple(ProblemScore(*p) for p in problems)
-    return StudentGrade(student, sub, rebuilt, scores, tuple(Issue(*i) for i in issues))
+    return StudentGrade(student, sub, tuple(rebuilt), scores, tuple(Issue(*i) for i in issues))
 
 
 def _issue(i: Issue) -> tuple:
