@@ -472,7 +472,7 @@ def _grade_batch(
         listed = [(f.path, f.status, f.detail) for f in intake_files]
         report = report_markdown(
             assignment_title=assignment_title, grades=grades, files=listed, flags=flags, histogram=image,
-            carried=carry is not None,
+            carried=carry is not None, carry_limits=carry.limits() if carry is not None else (),
         )
         write_text(root / "report.md", _first_section(report, _attention(grades, conflicts, intake_files)))
         written = stage.commit(

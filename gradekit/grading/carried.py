@@ -53,6 +53,29 @@ class CarryForward:
                 warn(f"{label}: the keys of {n} student(s) differ from the bank's variants now (the bank changed "
                      f"since generation); their answers of {label} are not carried forward")
 
+    def limits(self) -> list[tuple[str, str]]:
+        """(answer key, why) for each later answer (inertia, forces, totals) of a carried problem that
+        cannot be carried, or only in part, as the problem's model says (read off one student's variant)."""
+        from gradekit import carry
+
+        out = []
+        for label, credit in self.credit.items():
+            if credit <= 0:
+                continue
+            v = next((per[label] for per in self.variants.values() if label in per), None)
+            if v is None:
+                continue
+            for key, dep in carry.dependencies(v.result).items():
+                if dep.stage in ("given", "kinematics"):
+                    continue
+                held = [h[len("inertia["):-1] for h in dep.held if h.startswith("inertia[")]
+                if not dep.carriable:
+                    out.append((f"{label}.{key}", dep.reason))
+                elif held:
+                    out.append((f"{label}.{key}", f"carried with the inertia of link {', '.join(held)} kept exact "
+                                                   "(the problem asks none of its motion)"))
+        return out
+
     def apply(self, grade: StudentGrade) -> StudentGrade:
         """*grade* with carried credit on each problem that has some; unchanged when none applies."""
         if grade.submission is None:

@@ -396,6 +396,7 @@ def report_markdown(
     flags: Sequence[IntegrityFlag],
     histogram: str | None,
     carried: bool = False,
+    carry_limits: Sequence[tuple[str, str]] = (),
 ) -> str:
     """The instructor's report: summary, item analysis, (answers carried forward,) integrity flags,
     file accounting."""
@@ -436,7 +437,7 @@ def report_markdown(
         )
     out.append("")
     if carried:
-        out += _carried_section(submitted)
+        out += _carried_section(submitted, carry_limits)
     out += ["## Integrity flags", ""]
     out += [f"- {_md_cell(f.describe())}" for f in flags] or ["None."]
     out += ["", "## Files", "", "| File | Status | Detail |", "|---|---|---|"]
@@ -451,8 +452,9 @@ def report_markdown(
     return "\n".join(out)
 
 
-def _carried_section(submitted: Sequence[StudentGrade]) -> list[str]:
-    """How many answers earned carried-forward credit, of how many students, per answer."""
+def _carried_section(submitted: Sequence[StudentGrade], limits: Sequence[tuple[str, str]] = ()) -> list[str]:
+    """How many answers earned carried-forward credit, of how many students, per answer; and the
+    later answers that cannot be carried (or only in part), with why."""
     per: Counter[str] = Counter()
     students = 0
     for g in submitted:
@@ -461,11 +463,17 @@ def _carried_section(submitted: Sequence[StudentGrade]) -> list[str]:
         students += bool(mine)
     out = ["## Carried forward", ""]
     if not per:
-        return out + ["No answer was carried forward.", ""]
-    out += [f"{sum(per.values())} answers of {students} students earned credit as consistent with the "
-            "student's own earlier (wrong) answers.", "", "| Answer | Carried |", "|---|---|"]
-    out += [f"| {_md_cell(k)} | {n} |" for k, n in per.items()]
-    return out + [""]
+        out += ["No answer was carried forward.", ""]
+    else:
+        out += [f"{sum(per.values())} answers of {students} students earned credit as consistent with the "
+                "student's own earlier (wrong) answers.", "", "| Answer | Carried |", "|---|---|"]
+        out += [f"| {_md_cell(k)} | {n} |" for k, n in per.items()]
+        out.append("")
+    if limits:
+        out += ["Later answers not carried, or only in part:", "", "| Answer | Why |", "|---|---|"]
+        out += [f"| {_md_cell(k)} | {_md_cell(why)} |" for k, why in limits]
+        out.append("")
+    return out
 
 
 def write_text(path: Path, text: str) -> None:
