@@ -163,6 +163,20 @@ def test_bank_check_fails_an_answer_graded_wider_than_its_draws_were_accepted_wi
     assert np.isfinite(load_problem(f).constraints.bands["T"].rel)
 
 
+def test_every_bank_answer_is_graded_at_the_one_band_its_file_states():
+    """One source per band: each answer states its band in constraints.bands (no explicit tolerance:
+    beside it), and the bank loads exactly that band (the generated _tolerances.yaml row is a copy)."""
+    table = yaml.safe_load((bank_dir() / "_tolerances.yaml").read_text(encoding="utf-8"))
+    for p in load_bank().values():
+        for a in p.answers:
+            stated = p.constraints.bands.get(a.key)
+            assert stated is not None and not a.tolerance_explicit, (p.id, a.key)
+            t = a.tolerance
+            widths = (t.rel, t.abs, t.floor, bool(t.period))
+            assert widths == (stated.rel, stated.abs, stated.floor, bool(stated.period)), (p.id, a.key)
+            assert from_row(table[p.id][a.key]) == stated, (p.id, a.key)
+
+
 def test_a_row_keeps_an_absolute_part():
     band = Tolerance("relative", 0.1, 4.0, floor=0.05)
     assert from_row(to_row(band)) == band and to_row(band) == {"rel": 0.1, "floor": 0.05, "abs": 4.0}
