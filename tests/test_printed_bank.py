@@ -137,7 +137,8 @@ def test_every_printed_parameter_is_the_students_own(whole_bank):
                 pub = fmt(par.value, 6)
                 if pub in others:
                     continue  # the student's own value of another parameter prints the same
-                hit = re.search(rf"(?<![\w.]){re.escape(pub)} ?{re.escape(stem)}", _TABLE.sub(" ", section))
+                # a minus sign belongs to the number: −20 rad/s² is not the published 20 rad/s
+                hit = re.search(rf"(?<![\w.\-−]){re.escape(pub)} ?{re.escape(stem)}", _TABLE.sub(" ", section))
                 assert hit is None, (f"{sid} {item.label} ({item.problem.id}): the published {name} "
                                      f"= {pub} {stem} is printed: …{section[max(0, hit.start() - 60):hit.end() + 20]}…")
     assert checked > 100
