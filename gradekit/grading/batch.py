@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import gc
+import logging
 import os
 from collections.abc import Iterable, Iterator, Mapping, Sequence
 from contextlib import contextmanager, nullcontext
@@ -30,6 +31,7 @@ from gradekit.keys import KeyEntry
 from gradekit.roster import Student
 
 MARKER = ".gradekit-output"
+log = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True)
@@ -414,6 +416,9 @@ def _grade_batch(
     found = [ids.from_path(relative) for _, _, relative in files]
     named = [next(iter(f)) if len(f) == 1 else None for f in found]
     theirs = _helper_share(students, named)
+    if theirs:
+        log.debug("a helper process reads, grades and writes the feedback of %d of %d students", len(theirs),
+                 len(students))
     problems = list(dict.fromkeys(e.problem for e in keys))
     names = safe_names(s.student_id for s in students)
     with StagedFolder(out, MARKER) as stage:
