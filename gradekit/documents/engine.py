@@ -397,8 +397,7 @@ def _combine(out: Path, asg: Assignment, safes: list[str], keys: bool, pool=None
 def _concatenate(target: Path, parts: list[Path], title: str, author: str) -> None:
     """*parts* one after the other in *target*, each starting on an odd page (duplex), with every
     part's bookmarks kept under it (pikepdf: qpdf copies pages without parsing them in Python,
-    about three times faster than pypdf
-    with the bookmarks copied)."""
+    about three times faster than pypdf with the bookmarks copied)."""
     import io
 
     import pikepdf
