@@ -58,7 +58,9 @@ def loads(text: str, path: str) -> dict[str, list[KeyEntry]]:
     """Every student's frozen key entries, ``{student: [KeyEntry, …]}``, from a ``keys.json`` text.
 
     What is the same for the class is read once per answer; students whose tolerance resolved to
-    the same absolute floor share one (frozen) `Tolerance`.
+    the same absolute floor share one (frozen) `Tolerance`. The records are filled in directly (as
+    `_mistake`), not through their dataclass ``__init__``: equal to those it would make, at a third
+    of the cost (this runs before any grading can be shared with a helper process).
     """
     try:
         doc = json.loads(text)
@@ -78,13 +80,28 @@ def loads(text: str, path: str) -> dict[str, list[KeyEntry]]:
                 tol = tolerances.get(tol_abs)
                 if tol is None:
                     tol = tolerances[tol_abs] = make(abs=tol_abs)
-                mistakes = tuple([Mistake(name, names[name], float(v)) for name, v in found]) if found else ()
-                entry = KeyEntry(sid, problem, key, float(value), unit, tol, points, description, sign, mistakes)
+                mistakes = tuple([_mistake(name, names[name], float(v)) for name, v in found]) if found else ()
+                entry = _new(KeyEntry)
+                entry.__dict__.update(
+                    student_id=sid, problem=problem, key=key, value=float(value), unit=unit, tolerance=tol,
+                    points=points, description=description, sign_convention=sign, mistakes=mistakes,
+                )
                 entries.append(entry)
             out[sid] = entries
         return out
     except (ValueError, KeyError, TypeError) as exc:
         raise GradekitError(f"expected the frozen keys written by gradekit generate, got {exc}", path=path) from None
+
+
+_new = object.__new__
+
+
+def _mistake(name: str, description: str, value: float) -> Mistake:
+    """``Mistake(name, description, value)`` without the frozen dataclass's ``__init__`` (a class
+    holds a few hundred thousand: its field-by-field ``object.__setattr__`` was most of their cost)."""
+    m = _new(Mistake)
+    m.__dict__.update(name=name, description=description, value=value)
+    return m
 
 
 def sha256(text: str) -> str:
