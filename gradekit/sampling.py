@@ -5,9 +5,11 @@ The seed is SHA-256 of (course, assignment salt, student id, problem id), fed to
 rounded to the precision printed on the sheet, so the solver uses exactly what the student sees.
 A draw is accepted only when the mechanism assembles, passes the virtual-work check and every
 constraint of the problem; after ``max_draws`` rejections the error names the constraint that
-rejected the most. Sampling is batched: every pending variant's next draw (from its own
-generator, so each variant's sequence is the one a one-at-a-time loop would draw) is checked
-in one solve per round.
+rejected the most. Sampling is batched: every pending variant's next draws (from its own
+generator, so each variant's sequence is the one a one-at-a-time loop would draw, and its first
+acceptable draw the one it keeps) are checked in one solve per round; when few variants are
+pending, each draws several candidates ahead, so a class costs a few solves however often its
+constraints reject.
 """
 
 from __future__ import annotations
@@ -31,6 +33,8 @@ from gradekit.parameters import published_values, round_display, sig_round
 from gradekit.pipeline import Result, ResultBatch, solve_many
 
 MAX_DRAWS = 400
+ROUND_ROWS = 512  # candidate rows worth one batched solve: fewer cost about its fixed overhead anyway
+TABLE_MAX = 1 << 16  # a stepped parameter with up to this many values has them rounded once, in a table
 
 def derive_seed(course: str, salt: str, student: str, problem_id: str, redraw: int = 0) -> int:
     """A 64-bit seed from SHA-256 of the four identifiers (and a re-draw counter)."""
@@ -44,9 +48,87 @@ def draw(p: Parameter, rng: np.random.Generator) -> float:
         return float(p.choices[int(rng.integers(len(p.choices)))])
     assert p.low is not None and p.high is not None
     if p.step:
-        n = int(math.floor((p.high - p.low) / p.step + 1e-9))
-        return round(p.low + p.step * int(rng.integers(n + 1)), 10)
+        return round(p.low + p.step * int(rng.integers(_steps(p) + 1)), 10)
     return sig_round(float(rng.uniform(p.low, p.high)), p.sigfigs or 3)
+
+
+class _Drawer:
+    """Many successive draws of a problem's random parameters from each generator, in one call per
+    generator: row ``r`` of a generator's block is exactly what its ``r``-th round of `draw` (then
+    `round_display`, as `sample_many` rounds) gives, and the generator consumes the same bits.
+
+    Why it is the same: a stepped or listed parameter draws ``rng.integers(n + 1)``, and numpy's
+    ``rng.integers(0, highs)`` with an array of highs draws each element with the same bounded
+    generator (Lemire's, over the same 32-bit stream) as one scalar call per element; a continuous
+    parameter draws ``rng.uniform(low, high)``, which is ``low + (high - low) * rng.random()``.
+    Problems that mix the two (the 32-bit stream keeps half a word between integer calls that a
+    uniform draw skips) draw one value at a time, as `draw` does. tests/test_sampling_blocks.py
+    checks it against `draw` bit for bit.
+    """
+
+    def __init__(self, randoms: list[Parameter]):
+        self.randoms = randoms
+        if all(p.choices or p.step for p in randoms):
+            self.kind = "integers"
+            self.highs = np.array([len(p.choices) if p.choices else _steps(p) + 1 for p in randoms], np.int64)
+            self.tables = [_table(p) for p in randoms]
+        elif not any(p.choices or p.step for p in randoms):
+            self.kind = "uniform"
+            self.lows = np.array([float(p.low) for p in randoms])
+            self.spans = np.array([float(p.high) - float(p.low) for p in randoms])
+        else:
+            self.kind = "mixed"
+
+    def rows(self, rngs: list[np.random.Generator], counts: np.ndarray) -> np.ndarray:
+        """``counts[g]`` successive draws from ``rngs[g]``, every generator's after the previous one's,
+        as an array (draw, parameter) of the values `sample_many` uses."""
+        k = len(self.randoms)
+        if self.kind == "mixed":
+            return np.array(
+                [
+                    [draw(p, rng) if p.choices else round_display(p, draw(p, rng)) for p in self.randoms]
+                    for rng, c in zip(rngs, counts, strict=True)
+                    for _ in range(c)
+                ],
+                float,
+            ).reshape(-1, k)
+        if self.kind == "uniform":
+            u = np.concatenate([rng.random(c * k) for rng, c in zip(rngs, counts, strict=True)]).reshape(-1, k)
+            raw = self.lows + self.spans * u
+            out = np.empty(raw.shape)
+            for j, p in enumerate(self.randoms):
+                out[:, j] = [round_display(p, sig_round(float(x), p.sigfigs or 3)) for x in raw[:, j]]
+            return out
+        idx = np.concatenate([rng.integers(0, np.tile(self.highs, c)) for rng, c in zip(rngs, counts, strict=True)])
+        idx = idx.reshape(-1, k)
+        out = np.empty(idx.shape)
+        for j, (p, table) in enumerate(zip(self.randoms, self.tables, strict=True)):
+            if table is not None:
+                out[:, j] = table[idx[:, j]]
+            else:  # a very fine step: round only the values drawn
+                uniq, back = np.unique(idx[:, j], return_inverse=True)
+                out[:, j] = np.array([_stepped(p, int(i)) for i in uniq], float)[back]
+        return out
+
+
+def _steps(p: Parameter) -> int:
+    """The largest step index of a stepped parameter (its values are ``low + step * 0..n``)."""
+    assert p.low is not None and p.high is not None and p.step
+    return int(math.floor((p.high - p.low) / p.step + 1e-9))
+
+
+def _stepped(p: Parameter, i: int) -> float:
+    """Value *i* of a stepped parameter, rounded as `draw` and then `round_display` round it."""
+    assert p.low is not None and p.step
+    return round_display(p, round(p.low + p.step * i, 10))
+
+
+def _table(p: Parameter) -> np.ndarray | None:
+    """Every value a listed or stepped parameter can take, by the integer drawn (None when too many)."""
+    if p.choices:
+        return np.array([float(c) for c in p.choices], float)
+    n = _steps(p)
+    return np.array([_stepped(p, i) for i in range(n + 1)], float) if n < TABLE_MAX else None
 
 
 @dataclass
@@ -258,6 +340,9 @@ def sample_many(
 
     Each seed's generator draws until a draw passes every constraint; all pending draws of a
     round are solved together, so a class costs a few batched solves, not one solve per draw.
+    A round draws each pending seed's next candidates (several when few seeds are pending) and
+    keeps its first acceptable one: the values, the draw count and, for a seed that finds none
+    within *max_draws*, the rejections counted are those of one draw at a time.
     """
     if seeds is None:
         students = list(students or [])
@@ -278,29 +363,39 @@ def sample_many(
         rows = [(batch, 0, base)] * n
         everyone = np.ones(n, bool)
         return VariantBatch(problem, seeds, values, draws, everyone, rows, failures, np.array(redraws or [0] * n))
+    drawer = _Drawer(randoms)
     rngs = [np.random.default_rng(s) for s in seeds]
-    pending = np.arange(n)
-    for attempt in range(1, max_draws + 1):
-        if not len(pending):
-            break
-        cand = {k: np.full(len(pending), v, float) for k, v in base.items()}
-        for j, i in enumerate(pending):
-            rng = rngs[i]
-            for p in randoms:
-                cand[p.name][j] = round_display(p, draw(p, rng)) if not p.choices else draw(p, rng)
-        reasons, batch = check_many(problem, cand, len(pending))
-        keep = []
-        for j, i in enumerate(pending):
-            draws[i] = attempt
-            if reasons[j] is None and batch.ok[j]:
-                ok[i] = True
-                rows[i] = (batch, j, cand)
-                for p in randoms:
-                    values[p.name][i] = cand[p.name][j]
-            else:
-                failures.setdefault(int(i), Counter())[reasons[j] or "unknown"] += 1
-                keep.append(i)
-        pending = np.array(keep, int)
+    used = np.zeros(n, int)  # draws each seed's generator has made
+    pending = np.arange(n) if max_draws > 0 else np.arange(0)
+    tried = passed = 0
+    while len(pending):
+        # Each pending seed draws `per` candidates (its next draws, in order): enough rows to be worth a
+        # solve, no more than a few times the draws an acceptance is expected to take.
+        rate = (passed + 1) / (tried + 2)
+        per = max(1, min(-(-ROUND_ROWS // len(pending)), math.ceil(4 / rate)))
+        counts = np.minimum(per, max_draws - used[pending])
+        block = drawer.rows([rngs[i] for i in pending], counts)
+        m = len(block)
+        cand = {k: np.full(m, v, float) for k, v in base.items()}
+        for j, p in enumerate(randoms):
+            cand[p.name] = block[:, j].copy()
+        reasons, batch = check_many(problem, cand, m)
+        good = (reasons == None) & batch.ok  # noqa: E711 (elementwise)
+        tried, passed = tried + m, passed + int(good.sum())
+        starts = np.cumsum(counts) - counts
+        first = np.minimum.reduceat(np.where(good, np.arange(m), m), starts)  # each seed's first accepted row
+        hit = first < m
+        for i, j in zip(pending[hit], first[hit], strict=True):
+            ok[i] = True
+            rows[i] = (batch, int(j), cand)
+        for p in randoms:
+            values[p.name][pending[hit]] = cand[p.name][first[hit]]
+        draws[pending[hit]] = used[pending[hit]] + first[hit] - starts[hit] + 1
+        for i, s, c in zip(pending[~hit], starts[~hit], counts[~hit], strict=True):
+            failures.setdefault(int(i), Counter()).update(r or "unknown" for r in reasons[s : s + c])
+        used[pending[~hit]] += counts[~hit]
+        draws[pending[~hit]] = used[pending[~hit]]
+        pending = pending[~hit][used[pending[~hit]] < max_draws]
     for i in range(n):
         if ok[i]:
             failures.pop(i, None)
