@@ -116,13 +116,21 @@ def gc_paused() -> Iterator[None]:
     """Pause Python's cyclic garbage collector for a batch (restored after; reference counting
     still frees everything). Grading a class allocates a few hundred thousand small records (keys,
     answers, verdicts) that form no cycles, and every automatic full collection walks all of them
-    that are alive, so with the collector on, the time grew faster than the class."""
+    that are alive, so with the collector on, the time grew faster than the class.
+
+    On the way out, what is alive is frozen (``gc.freeze``, a list splice) before the collector is
+    turned back on: left in the youngest generation, all that the batch allocated was walked by the
+    first collection after ``gc.enable`` and again by the full collection at interpreter exit
+    (together about 1 s of CPU for 3,000 students, a fifth of the run). Frozen objects are still
+    freed by reference counting when dropped; only the cyclic collector leaves them out (a
+    long-running program that wants them examined again calls ``gc.unfreeze()``)."""
     enabled = gc.isenabled()
     gc.disable()
     try:
         yield
     finally:
         if enabled:
+            gc.freeze()
             gc.enable()
 
 
