@@ -19,7 +19,7 @@ from gradekit.answers import published_mismatches
 from gradekit.bank.registry import load_bank
 from gradekit.errors import GradekitError
 from gradekit.keys import Tolerance
-from gradekit.mechanics.forces import VW_LIMIT
+from gradekit.mechanics.forces import VW_LIMIT, Conditioning
 from gradekit.mistakes import mistakes_many
 from gradekit.report import fmt
 from gradekit.sampling import class_variants, derive_seed, sample_many, variant
@@ -43,6 +43,16 @@ def _self_grade_failures(key: str, tol: Tolerance, values: np.ndarray, scales: n
             if tol.resolve(float(scales[i])).accepts(outside[i], values[i]) != bool(many[i]):
                 bad.append(f"variant {i}: {key}: the batched and the one-answer tolerance disagree")
     return bad
+
+
+def _worst_condition(batch, sel: np.ndarray) -> float:
+    """The largest condition number of rows *sel* of a solved batch (``batch.condition_number[sel].max()``),
+    with an SVD of those rows only: a sampled batch also holds the candidates its constraints rejected."""
+    worst = 0.0
+    for case in batch.cases:
+        c = case.solutions.conditioning
+        worst = max(worst, float(Conditioning(c.systems[sel], c.refused[sel], None).values.max()))
+    return worst
 
 
 def _band_check(problem, a, sel: np.ndarray, found: dict) -> tuple[float, int, int, int, int]:
@@ -97,7 +107,7 @@ def check_problem(problem, n: int, class_size: int, echo: Callable[[str], None])
     for batch, rows in vb.by_batch():
         sel = np.asarray(rows)
         worst_mu = min(worst_mu, float(batch.transmission_angle[sel].min()))
-        worst_cond = max(worst_cond, float(batch.condition_number[sel].max()))
+        worst_cond = max(worst_cond, _worst_condition(batch, sel))
         vw = batch.virtual_work_residual[sel]
         worst_vw = max(worst_vw, float(vw.max()))
         for i in np.flatnonzero(vw > VW_LIMIT):

@@ -33,7 +33,7 @@ from gradekit.parameters import published_values, round_display, sig_round
 from gradekit.pipeline import Result, ResultBatch, solve_many
 
 MAX_DRAWS = 400
-ROUND_ROWS = 512  # candidate rows worth one batched solve: fewer cost about its fixed overhead anyway
+ROUND_ROWS = 1024  # candidate rows per batched solve when few seeds are pending (fewer pay its fixed cost for little)
 TABLE_MAX = 1 << 16  # a stepped parameter with up to this many values has them rounded once, in a table
 
 def derive_seed(course: str, salt: str, student: str, problem_id: str, redraw: int = 0) -> int:
@@ -72,6 +72,7 @@ class _Drawer:
             self.kind = "integers"
             self.highs = np.array([len(p.choices) if p.choices else _steps(p) + 1 for p in randoms], np.int64)
             self.tables = [_table(p) for p in randoms]
+            self.tiled = self.highs  # the highs repeated for as many draws as a generator has made at once
         elif not any(p.choices or p.step for p in randoms):
             self.kind = "uniform"
             self.lows = np.array([float(p.low) for p in randoms])
@@ -99,7 +100,10 @@ class _Drawer:
             for j, p in enumerate(self.randoms):
                 out[:, j] = [round_display(p, sig_round(float(x), p.sigfigs or 3)) for x in raw[:, j]]
             return out
-        idx = np.concatenate([rng.integers(0, np.tile(self.highs, c)) for rng, c in zip(rngs, counts, strict=True)])
+        if len(self.tiled) < counts.max() * k:
+            self.tiled = np.tile(self.highs, int(counts.max()))
+        tiled = self.tiled
+        idx = np.concatenate([rng.integers(0, tiled[: c * k]) for rng, c in zip(rngs, counts, strict=True)])
         idx = idx.reshape(-1, k)
         out = np.empty(idx.shape)
         for j, (p, table) in enumerate(zip(self.randoms, self.tables, strict=True)):
