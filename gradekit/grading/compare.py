@@ -14,6 +14,7 @@ from gradekit.roster import Student
 from gradekit.units import factor
 
 _DEG = 180.0 / math.pi
+_isfinite = math.isfinite
 
 METHOD_MISTAKES = frozenset({"static-answer", "no-inertia-torque", "no-gravity"})
 """Catalogued mistakes of method, which feedback without ``--reveal`` may name.
@@ -39,19 +40,24 @@ def generic_mistakes(entry: KeyEntry) -> tuple[Mistake, ...]:
         N·mm for N·m), and for angular units ``degrees for radians`` (v·180/π) or
         ``radians for degrees`` (v·π/180).
     """
+    return tuple([Mistake(name, description, value) for name, description, value in _generic(entry)])
+
+
+def _generic(entry: KeyEntry) -> list[tuple[str, str, float]]:
+    """`generic_mistakes` as (name, description, value), without the records."""
     v = entry.value
-    found: list[Mistake] = []
+    found = []
     if v != 0:
         convention = f" (convention: {entry.sign_convention})" if entry.sign_convention else ""
-        found.append(Mistake("sign flipped", f"the sign is reversed{convention}", -v))
-    found.append(Mistake("×1000 unit slip", "1000 times too large (e.g. N·mm for N·m)", v * 1000))
-    found.append(Mistake("÷1000 unit slip", "1000 times too small (e.g. N·m for N·mm)", v / 1000))
+        found.append(("sign flipped", f"the sign is reversed{convention}", -v))
+    found.append(("×1000 unit slip", "1000 times too large (e.g. N·mm for N·m)", v * 1000))
+    found.append(("÷1000 unit slip", "1000 times too small (e.g. N·m for N·mm)", v / 1000))
     unit = entry.unit.replace(" ", "").lower()
     if unit.startswith("rad"):
-        found.append(Mistake("degrees for radians", "given in degrees, asked in radians", v * _DEG))
+        found.append(("degrees for radians", "given in degrees, asked in radians", v * _DEG))
     elif unit.startswith(("deg", "°")):
-        found.append(Mistake("radians for degrees", "given in radians, asked in degrees", v / _DEG))
-    return tuple(found)
+        found.append(("radians for degrees", "given in radians, asked in degrees", v / _DEG))
+    return found
 
 
 @dataclass(frozen=True)
@@ -184,9 +190,9 @@ def _diagnoses(entry: KeyEntry, value: float) -> tuple[Mistake | None, Mistake |
     if first is not None:
         return first, None
     named = {m.name for m in entry.mistakes}
-    for mistake in generic_mistakes(entry):
-        if mistake.name not in named and math.isfinite(mistake.value) and accepts(value, mistake.value):
-            return mistake, None
+    for name, description, mistaken in _generic(entry):  # the record made for the one that fits only
+        if name not in named and math.isfinite(mistaken) and accepts(value, mistaken):
+            return Mistake(name, description, mistaken), None
     return None, None
 
 
@@ -214,8 +220,11 @@ def compare(entry: KeyEntry, answer: Answer | None) -> AnswerResult:
         except GradekitError as exc:
             return AnswerResult(entry, answer, None, False, 0.0, None, None, message=exc.detail)
     tol = entry.tolerance
-    correct = tol.accepts(value, entry.value)
-    error = tol.difference(value, entry.value)
+    key = entry.value
+    error = value - key  # tol.accepts(value, key), with its difference kept (the same operations)
+    if tol.period:
+        error = (error + tol.period / 2) % tol.period - tol.period / 2
+    correct = _isfinite(value) and _isfinite(key) and abs(error) <= tol.band(key) * (1 + 1e-12)
     turn = 0.0 if tol.period else _turn(entry.unit)
     if turn:
         error = (error + turn / 2) % turn - turn / 2
