@@ -117,12 +117,26 @@ def _check(problem: Problem, source: str) -> None:
         )
 
 
+_TEMPLATES: dict[str, jinja2.Template] = {}
+
+
+def _template(problem: Problem, source: str) -> jinja2.Template:
+    """The checked, compiled statement *source* (compiled once per process, not once per student)."""
+    template = _TEMPLATES.get(source)
+    if template is None:
+        _check(problem, source)
+        if len(_TEMPLATES) >= 512:
+            _TEMPLATES.clear()
+        template = _TEMPLATES[source] = _ENV.from_string(source)
+    return template
+
+
 def render_statement(problem: Problem, values: dict[str, float]) -> str:
     """The statement with each parameter name replaced by its value and unit."""
-    _check(problem, problem.statement)
+    template = _template(problem, problem.statement)
     ctx = {n: shown(problem, n, v) for n, v in values.items() if n in problem.parameters}
     try:
-        text = _ENV.from_string(problem.statement).render(**ctx).strip()
+        text = template.render(**ctx).strip()
     except jinja2.sandbox.SecurityError as exc:
         raise _refuse(
             problem, f"expected a statement using the problem's parameters, got an unsafe use: {exc}"

@@ -6,8 +6,6 @@ import math
 import re
 from dataclasses import dataclass
 
-import numpy as np
-
 from gradekit import units
 from gradekit.assignment import Assignment, Item, keys_for
 from gradekit.documents import steps
@@ -274,14 +272,9 @@ def _case(res: Result, case: CaseResult) -> dict:
     }
 
 
-def _point_at(link, pos) -> str:
-    """The internal name of the linkage point at *pos* ('' when none)."""
-    return next((n for n, pt in link.points.items() if np.allclose(pt.pos(), pos, atol=1e-12)), "")
-
-
 def _joint_name(p, link, j) -> str:
     """A joint as the sheet names it: its point's printed name (O, B, C), a slider's 'slide at C'."""
-    name = p.point(_point_at(link, j.point.pos()) or j.name)
+    name = p.point(link.point_at(j.point.pos()) or j.name)
     return f"slide at {name}" if isinstance(j, Prismatic) else name
 
 

@@ -78,7 +78,7 @@ class Names:
         return f"arrow(r)_({m(self.pt(a) + self.pt(b))})"
 
     def point_at(self, pos) -> str:
-        return next((k for k, q in self.link.points.items() if np.allclose(q.pos(), pos, atol=1e-12)), "")
+        return self.link.point_at(pos)
 
 
 # ---------------------------------------------------------------------------------------- kinematics

@@ -36,7 +36,7 @@ from gradekit.figures.canvas import (
 )
 from gradekit.figures.mech import BAR, PIN, com_marker, draw_linkage
 from gradekit.mechanics.forces import AppliedForce, Member
-from gradekit.mechanics.model import Linkage, Prismatic
+from gradekit.mechanics.model import Linkage, Prismatic, same_point
 from gradekit.pipeline import CaseResult, Result
 from gradekit.report import fmt
 
@@ -145,11 +145,11 @@ def _crowded(seg, drawn, near: float = 6.0) -> bool:
 def _on_body(link: Linkage, body: str, point: str) -> bool:
     b = link.bodies[body]
     p = np.asarray(link.points[point].pos())
-    if np.allclose(p, b.origin.pos()):
+    if same_point(p, b.origin.pos()):
         return True
     for j in link.joints:
         if body in (getattr(j, "a", None), getattr(j, "b", None), getattr(j, "block", None),
-                    getattr(j, "guide", None)) and np.allclose(p, j.point.pos()):
+                    getattr(j, "guide", None)) and same_point(p, j.point.pos()):
             return True
     return False
 
@@ -216,7 +216,7 @@ def motion_polygon(result: Result, cr: CaseResult, which: str) -> Canvas:
     for body, st in cr.solution.states.items():
         if st.mass or st.inertia:
             g = np.asarray(st.v_g if which == "vel" else st.a_g, float)
-            if not any(np.allclose(g, v) for v in vec.values()):
+            if not any(same_point(g, v) for v in vec.values()):
                 vec[com_name(pr, body)] = g
     biggest = max(float(np.hypot(*v)) for v in vec.values())
     cv = Canvas()

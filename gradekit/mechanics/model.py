@@ -154,6 +154,10 @@ class Linkage:
     lengths: dict[str, float] = field(default_factory=dict)
     refused: Refusals | None = None
 
+    def point_at(self, pos) -> str:
+        """The name of the point at *pos* ('' when none)."""
+        return next((n for n, q in self.points.items() if same_point(q.pos(), pos, atol=1e-12)), "")
+
     def with_refusals(self, refused: Refusals) -> Linkage:
         return dataclasses.replace(self, refused=refused)
 
@@ -285,6 +289,12 @@ class Analysis:
             tuple(m.take(i) for m in self.motion_loads),
             {k: p.take(i) for k, p in self.points.items()},
         )
+
+
+def same_point(p, q, atol: float = 1e-8) -> bool:
+    """Whether 2-vectors *p* and *q* coincide, as ``numpy.allclose(p, q, atol=atol)`` decides
+    (relative tolerance 1e-5 of *q*), without its cost: figures and keys ask it thousands of times."""
+    return (abs(p[0] - q[0]) <= atol + 1e-5 * abs(q[0])) and (abs(p[1] - q[1]) <= atol + 1e-5 * abs(q[1]))
 
 
 def vec(p: np.ndarray) -> tuple[float, float]:
