@@ -24,7 +24,7 @@ from gradekit.grading.exports import (
     write_moodle,
     write_text,
 )
-from gradekit.grading.integrity import IntegrityFlag, find_copies
+from gradekit.grading.integrity import IntegrityFlag, class_keys, find_copies
 from gradekit.grading.parallel import Forked, helper_share, pack, unpack
 from gradekit.grading.reader import IdIndex, KeyIndex, Submission, read_file, special_kind
 from gradekit.keys import KeyEntry
@@ -462,6 +462,7 @@ def _grade_batch(
             chosen = {sid: sub for sid, sub in _choose(s for subs in per_file.values() for s in subs).items()
                       if sid not in theirs}
             mine = [None if s.student_id in theirs else graded(s, chosen) for s in students]
+            prepared = class_keys(keys)  # the keys' part of copy detection, while the helper grades
             records, packed = other.result() if theirs else ([], [])
         helped = {}
         for data in packed:
@@ -473,7 +474,7 @@ def _grade_batch(
         record.update((i, _record(files[i][1], subs, chosen)) for i, subs in per_file.items())
         intake_files = tuple([record[i] for i in range(len(files))] + ignored)
         conflicts = _conflicts(grades, entries, students)
-        flags = conflicts + find_copies(grades, keys)
+        flags = conflicts + find_copies(grades, keys, prepared=prepared)
         write_grades(root / "grades.csv", grades, problems, titles, carried=carry is not None)
         write_canvas(root / "canvas.csv", grades, assignment_title)
         write_moodle(root / "moodle.csv", grades, assignment_title)

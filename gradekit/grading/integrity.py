@@ -33,6 +33,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from operator import attrgetter
 
 import numpy as np
 
@@ -242,6 +243,59 @@ def _best_pairs(hits: list[tuple[np.ndarray, np.ndarray]], n_sub: int, n_all: in
     return count, other, answers
 
 
+@dataclass(frozen=True)
+class ClassKeys:
+    """The class's keys as copy detection reads them, prepared once from the key entries alone
+    (`class_keys`): a batch makes it while a helper process is still grading (`find_copies`
+    takes it as *prepared*).
+
+    ``everyone`` lists the students with keys in key order, ``col`` their column; ``names`` the
+    answer keys in order of first appearance; ``per_key[a]`` the class's keys of answer *a* sorted
+    by value, as (values, bands, columns, median band), repeated a period below and above for an
+    answer with a ``period`` (of its last entry); ``trial_of`` each answer key's trial.
+    """
+
+    everyone: list[str]
+    col: dict[str, int]
+    names: list[str]
+    trial_of: dict[str, int]
+    per_key: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray, float]]
+    period: np.ndarray
+
+
+def class_keys(keys: Sequence[KeyEntry], correlated: float = 0.7) -> ClassKeys:
+    """The part of copy detection that reads the keys alone (see `ClassKeys`)."""
+    sids = list(map(_STUDENT, keys))
+    everyone = list(dict.fromkeys(sids))
+    col = {sid: i for i, sid in enumerate(everyone)}
+    key_names = list(map(_KEY, keys))
+    names = list(dict.fromkeys(key_names))
+    aid = {name: i for i, name in enumerate(names)}
+    n = len(keys)
+    key_ix = np.fromiter(map(aid.__getitem__, key_names), np.int64, n)
+    cols = np.fromiter(map(col.__getitem__, sids), np.int64, n)
+    values = np.fromiter(map(_VALUE, keys), float, n)
+    bands = _bands(list(map(_TOLERANCE, keys)), values)
+    by_key = np.argsort(key_ix, kind="stable")
+    starts = np.searchsorted(key_ix[by_key], np.arange(len(names) + 1))
+    first = by_key[starts[:-1]]
+    trial_of = _clusters(names, [keys[i].problem for i in first], everyone, key_ix, cols, values, correlated)
+    period = np.array([keys[i].tolerance.period for i in by_key[starts[1:] - 1]], float)  # each key's last entry
+    per_key = {}
+    for a, idx in enumerate(np.split(by_key, starts[1:-1])):
+        v, w, o = values[idx], bands[idx], cols[idx]
+        if period[a]:
+            v = np.mod(v, period[a])
+            v, w, o = np.concatenate([v - period[a], v, v + period[a]]), np.tile(w, 3), np.tile(o, 3)
+        order = np.argsort(v, kind="stable")
+        w = w[order]
+        per_key[a] = (v[order], w, o[order], np.median(w) if len(w) else 0.0)
+    return ClassKeys(everyone, col, names, trial_of, per_key, period)
+
+
+_STUDENT, _KEY, _VALUE, _TOLERANCE = (attrgetter(f) for f in ("student_id", "key", "value", "tolerance"))
+
+
 def find_copies(
     grades: Sequence[StudentGrade],
     keys: Sequence[KeyEntry],
@@ -251,6 +305,7 @@ def find_copies(
     min_shared: int = 3,
     correlated: float = 0.7,
     dense: float = 0.02,
+    prepared: ClassKeys | None = None,
 ) -> list[IntegrityFlag]:
     """Flag submissions copied from a classmate: their key matched, or wrong answers shared.
 
@@ -270,6 +325,7 @@ def find_copies(
         dense: an answer that a random classmate's band holds with a larger chance than this
             is left out of the band look (too common to be evidence; it costs the most to
             index), and kept in the sharper look at the digits given.
+        prepared: ``class_keys(keys, correlated)`` when already made.
 
     Returns:
         Key matches (one per flagged student, naming the classmate) then shared wrong answers
@@ -278,37 +334,20 @@ def find_copies(
     subs = [g for g in grades if g.submission is not None]
     if not subs or not keys:
         return []
-    sids = [e.student_id for e in keys]
-    everyone = list(dict.fromkeys(sids))
-    known = set(everyone)
-    for g in subs:
-        if g.student.student_id not in known:
-            known.add(g.student.student_id)
-            everyone.append(g.student.student_id)
-    col = {sid: i for i, sid in enumerate(everyone)}
+    ck = prepared if prepared is not None else class_keys(keys, correlated)
+    everyone, col, names, trial_of, per_key, period = ck.everyone, ck.col, ck.names, ck.trial_of, ck.per_key, ck.period
+    extra = [g.student.student_id for g in subs if g.student.student_id not in col]
+    if extra:  # students with a submission but no key (still classmates of no one's key)
+        everyone, col = list(everyone), dict(col)
+        for sid in extra:
+            if sid not in col:
+                col[sid] = len(everyone)
+                everyone.append(sid)
     n_all, n_sub = len(everyone), len(subs)
     classmates = max(n_all - 1, 1)
-    key_names = [e.key for e in keys]
-    names = list(dict.fromkeys(key_names))
     aid = {name: i for i, name in enumerate(names)}
     sub_col = np.array([col[g.student.student_id] for g in subs])
-
-    # per answer key: the class's keys, bands and period, in the order of *keys*
-    n = len(keys)
-    key_ix = np.fromiter(map(aid.__getitem__, key_names), np.int64, n)
-    cols = np.fromiter(map(col.__getitem__, sids), np.int64, n)
-    values = np.fromiter((e.value for e in keys), float, n)
-    bands = _bands([e.tolerance for e in keys], values)
-    by_key = np.argsort(key_ix, kind="stable")
-    starts = np.searchsorted(key_ix[by_key], np.arange(len(names) + 1))
-    first = by_key[starts[:-1]]
-    trial_of = _clusters(names, [keys[i].problem for i in first], everyone, key_ix, cols, values, correlated)
     n_trials = max(trial_of.values()) + 1
-    per_key = {
-        a: (values[idx], bands[idx], cols[idx])
-        for a, idx in enumerate(np.split(by_key, starts[1:-1]))
-    }
-    period = np.array([keys[i].tolerance.period for i in by_key[starts[1:] - 1]], float)  # each key's last entry
     # per answer key: the submitted values (student row, value, wrong for them), keys in the order first answered
     given = [
         (row, a, r.value, not r.correct)
@@ -326,7 +365,6 @@ def find_copies(
         groups = np.split(order, bounds) if len(order) else []
         for idx in sorted(groups, key=lambda idx: idx[0]):
             answered[int(g_key[idx[0]])] = (g_row[idx], g_x[idx], g_wrong[idx])
-
     p_band = np.zeros((n_sub, n_trials))
     p_exact = np.zeros((n_sub, n_trials))
     p_share = np.zeros((n_sub, n_trials))
@@ -338,18 +376,10 @@ def find_copies(
         rows, xs = rows_l[wrong_l], xs_l[wrong_l]
         if not len(rows) or a not in per_key:
             continue
-        v, w, o = per_key[a]
-        if period[a]:
-            v = np.mod(v, period[a])
-            xs_key = np.mod(xs, period[a])
-            v, w, o = np.concatenate([v - period[a], v, v + period[a]]), np.tile(w, 3), np.tile(o, 3)
-        else:
-            xs_key = xs
-        order = np.argsort(v, kind="stable")
-        v, w, o = v[order], w[order], o[order]
+        v, w, o, typical = per_key[a]
+        xs_key = np.mod(xs, period[a]) if period[a] else xs
         sig, radius = _digits_radius(xs, 6)
         # the chance that a random classmate's band holds x (larger one-sided density × band)
-        typical = np.median(w) if len(w) else 0.0
         weight, h = _density(v, w, xs_key, 3 * np.maximum(typical, radius), 10)
         pb = np.minimum(1.0, 2 * weight / (h * classmates))
         count, _ = _density(v, np.ones_like(w), xs_key, h, 1)
