@@ -115,7 +115,8 @@ def check_problem(problem, n: int, class_size: int, echo: Callable[[str], None])
         cond_bad = batch.condition_above(problem.constraints.condition_max)[sel]
         failures.extend(f"variant {rows[i]}: condition number above the bound" for i in np.flatnonzero(cond_bad))
         raw = next(r[2] for r in vb.rows if r is not None and r[0] is batch)
-        found = mistakes_many(batch, raw) if problem.constraints.distinguish else {}
+        kept = np.isin(np.arange(batch.n), sel)
+        found = mistakes_many(batch, raw, rows=kept) if problem.constraints.distinguish else {}
         for a in batch.answer_list:
             units[a.key] = a.unit
             vals = a.value[sel]

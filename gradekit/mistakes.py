@@ -48,41 +48,75 @@ def _resolved(p: Problem) -> list[tuple[str, str, Problem]]:
     return out
 
 
-def mistakes_many(batch: ResultBatch, values: dict) -> dict[str, list[MistakeBatch]]:
+def mistakes_many(batch: ResultBatch, values: dict, rows: np.ndarray | None = None) -> dict[str, list[MistakeBatch]]:
     """Every catalogued mistake of every answer of a solved batch (*values*: its raw parameter values).
 
-    Computed once per batch (the re-solves are batched too) and remembered on it.
+    Computed once per batch (the re-solves are batched too) and remembered on it. With *rows* (a
+    mask), only those variants need be re-solved (a sampler's batch also holds candidates that its
+    other constraints rejected): the mistakes of the others read NaN, unchanged, until a later call
+    asks for them. Each variant's values are the same however many are re-solved with it.
     """
-    cached = batch.__dict__.get("_mistakes")
-    if cached is not None:
-        return cached
     p, n = batch.problem, batch.n
-    out: dict[str, list[MistakeBatch]] = {a.key: [] for a in batch.answer_list}
-    for name, text, mp in _resolved(p):
-        try:
-            res = solve_many(mp, values, n)
-        except GradekitError:
-            continue
-        for a, b in zip(batch.answer_list, res.answer_list, strict=True):
-            changed = res.ok & (np.abs(b.value - a.value) > 1e-6 * np.maximum(np.abs(a.value), 1e-12))
-            out[a.key].append(MistakeBatch(name, text, b.value, changed))
-    for a in batch.answer_list:
-        if not a.spec.of.endswith((".x", ".y")):
-            continue
-        case = next(c for c in batch.cases if c.name == a.case)
-        stem, comp = a.spec.of.rsplit(".", 1)
-        for name, text, of in (
-            ("x-y-swapped", "the x and y components swapped", f"{stem}.{'y' if comp == 'x' else 'x'}"),
-            ("magnitude-for-component", "the magnitude given for a component", f"{stem}.mag"),
-        ):
-            if of in case.results:
-                v, u = case.results[of]
-                m = units.convert(v, u, a.unit)
-                out[a.key].append(
-                    MistakeBatch(name, text, m, np.abs(m - a.value) > 1e-9 * np.maximum(np.abs(a.value), 1))
-                )
-    batch.__dict__["_mistakes"] = out
-    return out
+    want = np.ones(n, bool) if rows is None else np.asarray(rows, bool)
+    memo = batch.__dict__.get("_mistakes")
+    if memo is None:
+        memo = batch.__dict__["_mistakes"] = _Found(batch)
+    todo = want & ~memo.done
+    if todo.any():
+        sub = np.flatnonzero(todo)
+        part = values
+        if len(sub) < n:
+            part = {k: np.broadcast_to(v, (n,))[sub] if np.ndim(v) else v for k, v in values.items()}
+        for (name, _text, mp), entries in zip(_resolved(p), memo.resolved, strict=True):
+            if entries is None:  # the problem with this mistake cannot be solved at all
+                continue
+            try:
+                res = solve_many(mp, part, len(sub))
+            except GradekitError:
+                memo.drop(name)
+                continue
+            for a, b, m in zip(batch.answer_list, res.answer_list, entries, strict=True):
+                key = a.value[sub]
+                m.value[sub] = b.value
+                m.changed[sub] = res.ok & (np.abs(b.value - key) > 1e-6 * np.maximum(np.abs(key), 1e-12))
+        memo.done |= todo
+    return memo.out
+
+
+class _Found:
+    """The catalogued mistakes of a batch as far as computed: ``done`` marks the re-solved variants."""
+
+    def __init__(self, batch: ResultBatch) -> None:
+        n = batch.n
+        self.done = np.zeros(n, bool)
+        self.out: dict[str, list[MistakeBatch]] = {a.key: [] for a in batch.answer_list}
+        self.resolved: list[list[MistakeBatch] | None] = []
+        for name, text, _mp in _resolved(batch.problem):
+            entries = [MistakeBatch(name, text, np.full(n, np.nan), np.zeros(n, bool)) for _ in batch.answer_list]
+            for a, m in zip(batch.answer_list, entries, strict=True):
+                self.out[a.key].append(m)
+            self.resolved.append(entries)
+        for a in batch.answer_list:  # read off the same solution: no re-solve
+            if not a.spec.of.endswith((".x", ".y")):
+                continue
+            case = next(c for c in batch.cases if c.name == a.case)
+            stem, comp = a.spec.of.rsplit(".", 1)
+            for name, text, of in (
+                ("x-y-swapped", "the x and y components swapped", f"{stem}.{'y' if comp == 'x' else 'x'}"),
+                ("magnitude-for-component", "the magnitude given for a component", f"{stem}.mag"),
+            ):
+                if of in case.results:
+                    v, u = case.results[of]
+                    m = units.convert(v, u, a.unit)
+                    self.out[a.key].append(
+                        MistakeBatch(name, text, m, np.abs(m - a.value) > 1e-9 * np.maximum(np.abs(a.value), 1))
+                    )
+
+    def drop(self, name: str) -> None:
+        """Forget a mistake whose problem cannot be solved (as if it were not catalogued)."""
+        for key, found in self.out.items():
+            self.out[key] = [m for m in found if m.name != name]
+        self.resolved = [None if e and e[0].name == name else e for e in self.resolved]
 
 
 def catalogued_mistakes(v) -> dict[str, list[Mistake]]:

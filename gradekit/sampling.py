@@ -238,7 +238,7 @@ def check_many(problem: Problem, values: dict, n: int) -> tuple[np.ndarray, Resu
                 if a.unit != "deg":
                     reject(ok & (np.abs(a.value) < c.gradable * c.band(a)), f"gradable: {a.key}")
         if c.distinguish:
-            found = mistakes_many(batch, values)
+            found = mistakes_many(batch, values, rows=reasons == None)  # noqa: E711 (the draws not yet rejected)
             for name, keys in c.distinguish:
                 for k in keys:
                     for a in (x for x in batch.answer_list if x.key == k or x.key.startswith(k + "_")):
