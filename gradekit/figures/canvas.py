@@ -490,7 +490,7 @@ def svg(cv: Canvas, margin: float = 6.0, extent: tuple[float, float, float, floa
     W, H = x1 - x0, y1 - y0
 
     def pts(xy: np.ndarray) -> str:
-        return " ".join(f"{x - x0:.2f},{y1 - y:.2f}" for x, y in xy)
+        return " ".join(f"{x - x0:.2f},{y1 - y:.2f}" for x, y in xy.tolist())
 
     def gid(st: dict) -> str:
         return f" id={quoteattr(st['gid'])}" if st.get("gid") else ""
