@@ -8,6 +8,8 @@ import os
 from collections.abc import Iterable, Iterator, Mapping, Sequence
 from contextlib import contextmanager, nullcontext
 from dataclasses import astuple, dataclass
+from itertools import groupby
+from operator import attrgetter
 from pathlib import Path
 
 from gradekit.csvsafe import StagedFolder, write_staged
@@ -275,11 +277,19 @@ def grade_students(
 
 
 def _entries(keys: Sequence[KeyEntry]) -> dict[str, list[KeyEntry]]:
-    """Each student's key entries, in order."""
+    """Each student's key entries, in order (a student's entries usually stand together: one
+    `groupby` run a student)."""
     entries: dict[str, list[KeyEntry]] = {}
-    for entry in keys:
-        entries.setdefault(entry.student_id, []).append(entry)
+    for sid, run in groupby(keys, _STUDENT):
+        mine = entries.get(sid)
+        if mine is None:
+            entries[sid] = list(run)
+        else:
+            mine.extend(run)
     return entries
+
+
+_STUDENT, _KEY, _PROBLEM = attrgetter("student_id"), attrgetter("key"), attrgetter("problem")
 
 
 def _check_out(out: Path, submissions: Path) -> None:
@@ -418,7 +428,7 @@ def _grade_batch(
     files, ignored = _walk(submissions, skip)
     _check_out(out, submissions)
     ids = IdIndex(students)
-    key_index = KeyIndex(e.key for e in keys)
+    key_index = KeyIndex(map(_KEY, keys))
     entries = _entries(keys)
     by_id = {s.student_id: s for s in students}
     found = [ids.from_path(relative) for _, _, relative in files]
@@ -427,7 +437,7 @@ def _grade_batch(
     if theirs:
         log.debug("a helper process reads, grades and writes the feedback of %d of %d students", len(theirs),
                  len(students))
-    problems = list(dict.fromkeys(e.problem for e in keys))
+    problems = list(dict.fromkeys(map(_PROBLEM, keys)))
     names = safe_names(s.student_id for s in students)
     with StagedFolder(out, MARKER) as stage:
         root = stage.root
