@@ -238,7 +238,6 @@ def _one(s: Student, safe: str) -> _Done:
     folder.mkdir(parents=True, exist_ok=True)
     ctx = build_context(asg, s, solved, key=False) | {"fonts": _STATE["fonts"]}
     body = typeset.render("assignment.typ.j2", ctx)
-    atomic_write(build / "assignment.typ", body)
     meta = _metadata(f"{asg.course} {asg.title}: assignment of {s.student_id}", asg.course)
     atomic_write(folder / "assignment.pdf", comp.pdf(meta + body))
     rows = []
@@ -251,7 +250,6 @@ def _one(s: Student, safe: str) -> _Done:
     if job.keys:
         kctx = build_context(asg, s, solved, key=True) | {"fonts": _STATE["fonts"]}
         kbody = typeset.render("key.typ.j2", kctx)
-        atomic_write(build / "key.typ", kbody)
         meta = _metadata(f"{asg.course} {asg.title}: worked key for {s.student_id}", asg.course)
         atomic_write(out / "keys" / f"{safe}.pdf", comp.pdf(meta + kbody))
     return _Done(s.student_id, key_rows, warnings)
