@@ -113,6 +113,18 @@ def test_sheet_has_own_values_and_name_never_an_answer(run):
                     assert shown not in tokens and shown.lstrip("-") not in tokens, (sid, e.key, shown)
 
 
+def test_only_the_key_names_the_course_documents_example(run):
+    asg, _, out, _ = run
+    refs = [load_assignment(asg).items[i].problem.source["ref"] for i in range(2)]
+    assert all(refs)  # "Example 5.1, §5.3.1": the published solution, with the book's numbers
+    sheet = _norm(_pdf_text(out / "students" / "1001" / "assignment.pdf"))
+    key = _norm(_pdf_text(out / "keys" / "1001.pdf"))
+    for ref in refs:
+        number = ref.split(",")[0]
+        assert number not in sheet
+        assert number in key
+
+
 def test_keys_hold_the_answers(run):
     asg, _, out, _ = run
     names = safe_names(["1001", "../evil"])

@@ -55,7 +55,9 @@ def build_context(asg: Assignment, student: Student, solved: list[Solved], *, ke
         p = {
             "label": s.item.label,
             "title": res.problem.title,
-            "source": _source(res.problem.source),
+            # the course document's example or figure number is the instructor's: a student's
+            # sheet points to their own values, not to a published solution
+            "source": _source(res.problem.source) if key else "",
             "points": num(s.item.points, 4),
             "method": res.problem.method,
             "analysis": res.problem.analysis,
