@@ -33,7 +33,11 @@ class _Group(click.Group):
 def main(verbose: int, quiet: bool) -> None:
     """gradekit: individual-value force-analysis assignments, keys and grading (MEG373)."""
     level = logging.ERROR if quiet else logging.DEBUG if verbose else logging.INFO
-    logging.basicConfig(level=level, format="%(message)s", stream=sys.stderr)
+    # gradekit's own messages at *level*; other libraries' only when they warn (pikepdf, for one,
+    # announces its logger at INFO)
+    others = logging.DEBUG if verbose > 1 else logging.WARNING
+    logging.basicConfig(level=others, format="%(message)s", stream=sys.stderr)
+    log.setLevel(level)
 
 
 def _variant(problem, published: bool, student: str | None, seed: int | None, course: str, salt: str, redraw: int = 0):

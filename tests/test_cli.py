@@ -133,3 +133,21 @@ def test_load_points_use_the_printed_names(tmp_path):
         "loads[0].at: expected a point as printed in this problem (B, C, O); got 'O2', which is printed as 'O'"
         in r.output
     )
+
+
+def test_generate_prints_its_own_messages_only(tmp_path):
+    """A fresh process, as an instructor runs it: the summary line on stderr, no library's INFO
+    chatter (pikepdf announces its logger bridge at INFO)."""
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    roster = tmp_path / "roster.csv"
+    roster.write_text("student_id,name\n1001,Ana Pérez\n", encoding="utf-8")
+    out = subprocess.run(
+        [sys.executable, "-m", "gradekit", "generate", str(root / "examples" / "hw5.yaml"), "--roster", str(roster),
+         "--out", str(tmp_path / "out"), "--no-keys"],
+        capture_output=True, text=True, cwd=tmp_path, check=True)
+    lines = [ln for ln in out.stderr.splitlines() if ln.strip()]
+    assert len(lines) == 1 and lines[0].startswith("wrote documents for 1 student(s)"), out.stderr
