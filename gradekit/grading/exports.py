@@ -268,23 +268,13 @@ _CSS_CLASS = {"right": "right", "wrong": "wrong", "not graded": "not", "carried 
 
 
 def _rows(r: AnswerResult, reveal: bool, hint: str) -> tuple[str, str]:
-    """One answer's feedback row as (Markdown table row, HTML table row), every cell escaped.
-
-    Both escapes act character by character, so a cell is escaped in parts: the value a student
-    wrote (nearly always plain) and the bracketed unit (recurring: memoised).
-    """
-    cells = _answer_cells(r, reveal, hint)
-    key, read, rest = cells[0], cells[1], cells[2:]
+    """One answer's feedback row as (Markdown table row, HTML table row), every cell escaped."""
     answer = r.answer
-    if answer is not None and answer.raw_unit:  # read is f"{raw} [{raw_unit}]"
-        raw = answer.raw
-        md_raw, html_raw = (raw, raw) if not _SPECIAL.search(raw) else (_md_cell(raw), html.escape(raw))
-        md_read = f"{md_raw} \\[{_MD[answer.raw_unit]}\\]"
-        html_read = f"{html_raw} [{_HTML[answer.raw_unit]}]"
-    elif not _SPECIAL.search(read):
-        md_read = html_read = read
-    else:
-        md_read, html_read = _md_cell(read), html.escape(read)
+    if r.correct and not reveal and r.carried is None and r.method_diagnosis is None and answer is not None:
+        return _right_rows(r, answer)
+    cells = _answer_cells(r, reveal, hint)
+    key, rest = cells[0], cells[2:]
+    md_read, html_read = _read_cells(answer.raw, answer.raw_unit) if answer is not None else ("", "")
     if not _SPECIAL.search("".join(rest)):  # most rows: numbers, units and fixed phrases
         md_rest = html_rest = rest
     else:
@@ -294,6 +284,45 @@ def _rows(r: AnswerResult, reveal: bool, hint: str) -> tuple[str, str]:
     page = (f'<tr class="{_CSS_CLASS[cells[3]]}"><td>{_HTML[key]}</td><td>{html_read}</td><td>'
             + "</td><td>".join(html_rest) + "</td></tr>")
     return md, page
+
+
+def _read_cells(raw: str, raw_unit: str) -> tuple[str, str]:
+    """The You wrote cell (``raw``, or ``raw [raw_unit]``) escaped for Markdown and for HTML.
+
+    Both escapes act character by character, so the cell is escaped in parts: the value a student
+    wrote (nearly always plain) and the bracketed unit (recurring: memoised).
+    """
+    if raw_unit:
+        md_raw, html_raw = (raw, raw) if not _SPECIAL.search(raw) else (_md_cell(raw), html.escape(raw))
+        return f"{md_raw} \\[{_MD[raw_unit]}\\]", f"{html_raw} [{_HTML[raw_unit]}]"
+    if not _SPECIAL.search(raw):
+        return raw, raw
+    return _md_cell(raw), html.escape(raw)
+
+
+def _right_rows(r: AnswerResult, answer) -> tuple[str, str]:
+    """`_rows` of a right answer without *reveal* (most rows): its cells are those `_answer_cells`
+    makes (nothing is off, no mistake is named), written straight into both rows."""
+    entry = r.entry
+    unit = _PRETTY[entry.unit]
+    raw, raw_unit, given_unit = answer.raw, answer.raw_unit, answer.unit
+    given = _PRETTY[given_unit] if given_unit else f"{unit} (no unit given)"
+    parsed = f"{_as_read(raw, answer.number)} {given}".strip()
+    if given_unit and given_unit != entry.unit:
+        parsed += f" = {fmt(r.value, 6)} {unit}"
+    points = _points_cell(r.points, entry.points)
+    md_read, html_read = _read_cells(raw, raw_unit)
+    if _SPECIAL.search(parsed) or _SPECIAL.search(points):
+        md_parsed, html_parsed, md_points, html_points = _MD[parsed], _HTML[parsed], _MD[points], _HTML[points]
+    else:
+        md_parsed = html_parsed = parsed
+        md_points = html_points = points
+    key = entry.key
+    return (
+        f"| {_MD[key]} | {md_read} | {md_parsed} | right |  |  | {md_points} |",
+        f'<tr class="right"><td>{_HTML[key]}</td><td>{html_read}</td><td>{html_parsed}</td><td>right</td>'
+        f"<td></td><td></td><td>{html_points}</td></tr>",
+    )
 
 
 _CSS = (
