@@ -532,6 +532,8 @@ class _Layout:
         row_ids: list[tuple[int, str, str | None]] = []  # line, raw id, roster id
         parsed: list[tuple[int, str | None, Answer | Issue]] = []
         matched: dict[str, str | None] = {"": None}  # the id cell repeats on every row
+        known = self.keys.keys
+        last = max(key_col, value_col, -1 if unit_col is None else unit_col)
         for line, row in rows:
             raw_id = row[id_col] if id_col is not None and id_col < len(row) else ""
             sid = matched[raw_id] if raw_id in matched else matched.setdefault(raw_id, self.ids.match(raw_id))
@@ -543,6 +545,14 @@ class _Layout:
                 msg = f"expected {width} cells, got {len(row)}{hint}"
                 parsed.append((line, sid, self.issue(line, "row", msg)))
                 continue
+            if last < len(row) and row[key_col] in known:  # most rows: `_answer` of a key as written and,
+                raw = row[value_col]  # with a plain number, `_cell` and `parse_value` take their first branch
+                raw_unit = "" if unit_col is None else row[unit_col]
+                if len(raw) <= MAX_CELL and len(raw_unit) <= units.MAX_LENGTH and _PLAIN_NUMBER.fullmatch(raw):
+                    number = float(raw)
+                    if math.isfinite(number):
+                        parsed.append((line, sid, Answer(row[key_col], raw, raw_unit, number, raw_unit, line, "unit")))
+                        continue
             parsed.append((line, sid, self._answer(line, row, key_col, value_col, unit_col)))
         owners = self._owners(row_ids, drafts)
         for (line, _sid, item), owner in zip(parsed, owners, strict=True):
