@@ -451,18 +451,25 @@ def report_markdown(
         "| Answer | Right | Answered | Most common mistakes |",
         "|---|---|---|---|",
     ]
-    stats: dict[str, list[AnswerResult]] = {}
+    stats: dict[str, list] = {}  # key -> [results, right, unanswered, mistake names]: one pass over the class
     for g in submitted:
         for r in g.results:
-            stats.setdefault(r.entry.key, []).append(r)
-    for key, results in stats.items():
-        right = [r.correct for r in results].count(True)
-        answered = len(results) - [r.value for r in results].count(None)
-        mistakes = Counter([r.diagnosis.name for r in results if r.diagnosis])
-        common = ", ".join(f"{name} ({n})" for name, n in mistakes.most_common(3)) or "–"
-        share = 100.0 * right / len(results)
+            key = r.entry.key
+            row = stats.get(key)
+            if row is None:
+                row = stats[key] = [0, 0, 0, []]
+            row[0] += 1
+            if r.correct:
+                row[1] += 1
+            if r.value is None:
+                row[2] += 1
+            if r.diagnosis:
+                row[3].append(r.diagnosis.name)
+    for key, (total, right, unanswered, names) in stats.items():
+        common = ", ".join(f"{name} ({n})" for name, n in Counter(names).most_common(3)) or "–"
+        share = 100.0 * right / total
         out.append(
-            f"| {_md_cell(key)} | {share:.0f} % ({right}/{len(results)}) | {answered} | {_md_cell(common)} |"
+            f"| {_md_cell(key)} | {share:.0f} % ({right}/{total}) | {total - unanswered} | {_md_cell(common)} |"
         )
     out.append("")
     if carried:
