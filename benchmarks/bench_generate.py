@@ -50,6 +50,74 @@ def measure(n: int, jobs: int, keys: bool) -> dict:
             "per_minute": round(per_min, 1), "bytes": sizes}
 
 
+def breakdown(n: int = 20) -> dict:
+    """Where one worker's time goes: CPU seconds per student, in this process, of each part of a
+    student's documents (examples/hw5.yaml, worked keys on), over *n* students after a first one
+    (warm caches, as in a worker). Typst's share is split into layout and PDF export by compiling
+    each body again without export (`query`)."""
+    import shutil
+
+    import typst
+
+    from gradekit.assignment import class_keys, load_assignment
+    from gradekit.documents import engine, typeset
+    from gradekit.roster import read_roster, safe_names
+
+    cpu = {"typst sheet": 0.0, "typst key": 0.0, "figures": 0.0, "template context": 0.0}
+    bodies: list[str] = []
+    with tempfile.TemporaryDirectory() as tmp:
+        students = read_roster(roster(Path(tmp) / "roster.csv", n + 1))
+        names = safe_names({s.student_id: s for s in students})
+        asg = load_assignment(ASSIGNMENT)
+        _, variants = class_keys(asg, [s.student_id for s in students])
+        out = Path(tmp) / "out"
+        for sub in ("students", "keys", engine.BUILD):
+            (out / sub).mkdir(parents=True)
+        job = engine._Job(str(ASSIGNMENT), str(out), True,
+                          {sid: {k: v.redraw for k, v in per.items()} for sid, per in variants.items()},
+                          {sid: {k: v.values for k, v in per.items()} for sid, per in variants.items()})
+        engine._init(job, asg, variants)
+        pdf, pictures, context = typeset.Compiler.pdf, engine._pictures, engine.build_context
+
+        def timed(key, f):
+            def g(*a, **k):
+                t = time.process_time()
+                try:
+                    return f(*a, **k)
+                finally:
+                    name = key(a) if callable(key) else key
+                    if name:
+                        cpu[name] += time.process_time() - t
+            return g
+
+        def body(a):
+            bodies.append(a[1])
+            return "typst key" if "WORKED KEY" in a[1] else "typst sheet"
+
+        engine._one(students[0], names[students[0].student_id])
+        typeset.Compiler.pdf = timed(body, pdf)
+        engine._pictures = timed("figures", pictures)
+        engine.build_context = timed("template context", context)
+        try:
+            t0 = time.process_time()
+            for st in students[1:]:
+                engine._one(st, names[st.student_id])
+            total = time.process_time() - t0
+        finally:
+            typeset.Compiler.pdf, engine._pictures, engine.build_context = pdf, pictures, context
+        layout = {"typst sheet": 0.0, "typst key": 0.0}
+        for b in bodies:
+            c = typst.Compiler(input=b.encode("utf-8"), root=str(out / engine.BUILD))
+            t = time.process_time()
+            c.query("heading")
+            layout["typst key" if "WORKED KEY" in b else "typst sheet"] += time.process_time() - t
+        shutil.rmtree(out, ignore_errors=True)
+    per = {k: round(v / n, 4) for k, v in cpu.items()}
+    per["other"] = round(total / n - sum(per.values()), 4)
+    return {"students": n, "cpu_s_per_student": per, "total_cpu_s_per_student": round(total / n, 4),
+            "typst_layout_s_per_student": {k: round(v / n, 4) for k, v in layout.items()}}
+
+
 def run(quick: bool) -> dict:
     """Class sizes 30 and 300 (quick: 30 only), 2 jobs, keys off and on. The marginal rate between
     the two sizes, (300 − 30) / (t300 − t30), excludes the start (workers, bank loading)."""
@@ -73,8 +141,11 @@ def run(quick: bool) -> dict:
                 "per_minute": round(rate, 1), "target": TARGETS[keys], "meets": rate >= TARGETS[keys]}
             print(f"marginal, keys={'yes' if keys else 'no'}: {rate:.1f} students/min "
                   f"(target {TARGETS[keys]:.0f}: {'met' if rate >= TARGETS[keys] else 'NOT met'})", flush=True)
+    parts = breakdown(5 if quick else 20)
+    print(f"CPU a student in one worker: {parts['total_cpu_s_per_student']} s: {parts['cpu_s_per_student']}",
+          flush=True)
     return {"cpus": os.cpu_count(), "assignment": str(ASSIGNMENT.relative_to(ROOT)), "results": results,
-            "marginal_per_minute": marginal}
+            "marginal_per_minute": marginal, "breakdown": parts}
 
 
 def main() -> None:

@@ -90,6 +90,19 @@ def _generate_md(res: dict) -> str:
         "The whole `generate` (class draws and keys, every sheet, answer template and worked key, key.csv, "
         "keys.json, both combined PDFs, manifest), one run per configuration, 2 jobs on this 2-core machine."
     )
+    parts = res.get("breakdown")
+    if parts:
+        layout = parts["typst_layout_s_per_student"]
+        note += (
+            f"\n\nWhere a worker's time goes (`breakdown` in the script: CPU seconds a student in one process, "
+            f"{parts['students']} students after a warm-up one, worked keys on):\n\n"
+            "| part | CPU s a student |\n|---|---|\n"
+            + "\n".join(f"| {k} | {v:g} |" for k, v in parts["cpu_s_per_student"].items())
+            + f"\n| **total** | **{parts['total_cpu_s_per_student']:g}** |\n\n"
+            f"Typst's layout alone (the same bodies compiled without PDF export): sheet {layout['typst sheet']:g} s, "
+            f"key {layout['typst key']:g} s; the rest of each is PDF export. Two workers on two cores give at most "
+            f"2 × 60 / total students a minute, before the contention of running both at once."
+        )
     return "\n".join(rows) + "\n\n" + note
 
 
