@@ -214,12 +214,7 @@ def _grade(assignment, roster, submissions, out, manifest, reveal, bank, recompu
             say("graded against the keys frozen at generation (keys.json); --recompute-keys grades against the "
                 "current bank instead")
     if frozen is not None:
-        missing = [s for s in ids if s not in frozen]
-        keys = [e for s in ids if s in frozen for e in frozen[s]]
-        if missing:
-            say(f"{len(missing)} roster student(s) have no frozen key (not on the roster at generation: "
-                f"{', '.join(missing[:5])}{'…' if len(missing) > 5 else ''}); their keys are computed now")
-            keys += class_keys(asg, missing, redraws)[0]
+        keys = _frozen_class(frozen, ids, lambda missing: class_keys(asg, missing, redraws)[0], say)
     else:
         done = []
 
@@ -237,9 +232,31 @@ def _grade(assignment, roster, submissions, out, manifest, reveal, bank, recompu
         if frozen is not None:  # the variants behind the frozen keys (checked against them per problem)
             variants = class_keys(asg, ids, redraws, with_mistakes=False, need_keys=False)[1]
         carry = CarryForward(variants, credit)
-        carry.check(keys, say)
+        carry.check(keys.all() if frozen is not None else keys, say)
     titles = {it.label: f"{it.label}: {it.problem.title}" for it in asg.items}
     return grade_batch(
         keys, students, Path(submissions), Path(out), assignment_title=asg.title, reveal=reveal, problem_titles=titles,
         hint=asg.feedback, carry=carry,
     )
+
+
+def _frozen_class(frozen, ids, compute, say):
+    """The class's keys for `grade_batch` from the frozen keys (a `gradekit.frozen.FrozenKeys`), as a
+    `StudentKeys` that builds no student's entries yet: the roster's students in the file in roster
+    order, then those keys are *compute*d for (not on the roster at generation)."""
+    from collections import ChainMap
+
+    from gradekit.grading.batch import StudentKeys
+
+    present = [s for s in ids if s in frozen]
+    missing = [s for s in ids if s not in frozen]
+    answers = frozen.answers(present)
+    if not missing:
+        return StudentKeys(frozen, present, answers)
+    say(f"{len(missing)} roster student(s) have no frozen key (not on the roster at generation: "
+        f"{', '.join(missing[:5])}{'…' if len(missing) > 5 else ''}); their keys are computed now")
+    computed: dict[str, list] = {}
+    for e in compute(missing):  # student by student, in the order of *missing*
+        computed.setdefault(e.student_id, []).append(e)
+        answers.setdefault(e.key, e.problem)
+    return StudentKeys(ChainMap(computed, frozen), present + list(computed), answers)

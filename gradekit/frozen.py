@@ -18,8 +18,9 @@ from __future__ import annotations
 
 import hashlib
 import json
-from collections.abc import Iterable
+from collections.abc import Iterable, Iterator, Mapping
 from functools import partial
+from itertools import chain
 
 from gradekit import __version__
 from gradekit.errors import GradekitError
@@ -54,13 +55,13 @@ def dumps(keys: Iterable[KeyEntry]) -> str:
     return json.dumps(doc, ensure_ascii=False, separators=(",", ":"), allow_nan=False) + "\n"
 
 
-def loads(text: str, path: str) -> dict[str, list[KeyEntry]]:
+def loads(text: str, path: str) -> FrozenKeys:
     """Every student's frozen key entries, ``{student: [KeyEntry, …]}``, from a ``keys.json`` text.
 
-    What is the same for the class is read once per answer; students whose tolerance resolved to
-    the same absolute floor share one (frozen) `Tolerance`. The records are filled in directly (as
-    `_mistake`), not through their dataclass ``__init__``: equal to those it would make, at a third
-    of the cost (this runs before any grading can be shared with a helper process).
+    The text is parsed and what is the same for the class is read here; each student's entries are
+    built on first access (`FrozenKeys`), so that a forked helper process builds those of the students
+    it grades, not the parent before the fork. A student's malformed entries raise the same
+    `GradekitError` (naming *path*) when they are first read.
     """
     try:
         doc = json.loads(text)
@@ -72,8 +73,59 @@ def loads(text: str, path: str) -> dict[str, list[KeyEntry]]:
             t = a["tolerance"]
             make = partial(Tolerance, t["mode"], t["rel"], sigfigs=t["sigfigs"], floor=t["floor"], period=t["period"])
             shared[key] = (a["problem"], a["unit"], a["points"], a["description"], a["sign"], make, {})
-        out: dict[str, list[KeyEntry]] = {}
-        for sid, rows in doc["students"].items():
+        students = doc["students"]
+        if not isinstance(students, dict):
+            raise TypeError(f"students as {type(students).__name__}, expected an object")
+        return FrozenKeys(students, shared, names, path)
+    except (ValueError, KeyError, TypeError, AttributeError) as exc:
+        raise _corrupt(exc, path) from None
+
+
+def _corrupt(exc: Exception, path: str) -> GradekitError:
+    return GradekitError(f"expected the frozen keys written by gradekit generate, got {exc}", path=path)
+
+
+class FrozenKeys(Mapping[str, list[KeyEntry]]):
+    """The students of a ``keys.json`` and their key entries, each student's list built on first access
+    and kept (`loads`).
+
+    Students whose tolerance resolved to the same absolute floor share one (frozen) `Tolerance`. The
+    records are filled in directly (as `_mistake`), not through their dataclass ``__init__``: equal
+    to those it would make, at a third of the cost.
+    """
+
+    def __init__(self, students: dict[str, dict], shared: dict[str, tuple], names: dict[str, str], path: str) -> None:
+        self._students, self._shared, self._names, self._path = students, shared, names, path
+        self._built: dict[str, list[KeyEntry]] = {}
+
+    def __getitem__(self, sid: str) -> list[KeyEntry]:
+        entries = self._built.get(sid)
+        if entries is None:
+            rows = self._students[sid]  # KeyError: not a student of the file
+            entries = self._built[sid] = self._build(sid, rows)
+        return entries
+
+    def __contains__(self, sid: object) -> bool:
+        return sid in self._students
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._students)
+
+    def __len__(self) -> int:
+        return len(self._students)
+
+    def answers(self, sids: Iterable[str]) -> dict[str, str]:
+        """Each answer key the entries of *sids* (students of the file) hold, with its problem, in the
+        order of first appearance in their entries one student after the other (built or not)."""
+        try:
+            shared = self._shared
+            return {key: shared[key][0] for key in dict.fromkeys(chain.from_iterable(map(self._students.get, sids)))}
+        except (KeyError, TypeError) as exc:
+            raise _corrupt(exc, self._path) from None
+
+    def _build(self, sid: str, rows: dict) -> list[KeyEntry]:
+        try:
+            shared, names = self._shared, self._names
             entries = []
             for key, (value, tol_abs, found) in rows.items():
                 problem, unit, points, description, sign, make, tolerances = shared[key]
@@ -87,10 +139,9 @@ def loads(text: str, path: str) -> dict[str, list[KeyEntry]]:
                     points=points, description=description, sign_convention=sign, mistakes=mistakes,
                 )
                 entries.append(entry)
-            out[sid] = entries
-        return out
-    except (ValueError, KeyError, TypeError) as exc:
-        raise GradekitError(f"expected the frozen keys written by gradekit generate, got {exc}", path=path) from None
+            return entries
+        except (ValueError, KeyError, TypeError, AttributeError) as exc:
+            raise _corrupt(exc, self._path) from None
 
 
 _new = object.__new__

@@ -156,3 +156,70 @@ def test_every_roster_student_is_graded_once_and_keys_derived_with_progress(cour
         ids = [r["student_id"] for r in csv.DictReader(f)]
     assert sorted(ids) == ["1001", "1002", "1003", "1004"]
     assert res.graded == 3
+
+
+def _entries():
+    from gradekit.keys import KeyEntry, Mistake, Tolerance
+
+    tol = Tolerance("relative", 0.01, abs=0.5, floor=0.001)
+    return [
+        KeyEntry("1001", "p1", "p1.T", 12.5, "N*m", tol, 2.0, "torque", "ccw+",
+                 (Mistake("static-answer", "a static answer", 10.0),)),
+        KeyEntry("1001", "p1", "p1.F", -3.0, "N", Tolerance("sigfigs", 0.0, abs=0.25), 1.0, "force"),
+        KeyEntry("1002", "p2", "p2.a", 7.0, "m/s^2", tol, 1.0),
+        KeyEntry("1002", "p1", "p1.T", 11.0, "N*m", tol, 2.0, "torque", "ccw+"),
+    ]
+
+
+def test_frozen_keys_build_each_students_entries_when_first_read():
+    """loads parses the file and builds a student's entries on first access (a helper process builds
+    those of its own students), equal to the entries dumped, in order, and kept once built."""
+    from gradekit import frozen
+
+    keys = _entries()
+    loaded = frozen.loads(frozen.dumps(keys), "keys.json")
+    assert loaded._built == {}
+    assert list(loaded) == ["1001", "1002"] and len(loaded) == 2 and "1003" not in loaded
+    assert loaded.get("1003") is None
+    assert loaded._built == {}
+    assert loaded["1002"] == keys[2:] and list(loaded._built) == ["1002"]
+    assert loaded["1002"] is loaded["1002"]
+    assert loaded["1001"] == keys[:2]
+    assert loaded.answers(["1002", "1001"]) == {"p2.a": "p2", "p1.T": "p1", "p1.F": "p1"}
+
+
+@pytest.mark.parametrize("row", ['["x",0.5,[]]', '[1.0,0.5]', '[1.0,0.5,[["no-such-mistake",2.0]]]'])
+def test_a_malformed_student_entry_names_the_file_when_read(row):
+    from gradekit import frozen
+    from gradekit.errors import GradekitError
+
+    text = frozen.dumps(_entries()).replace('"p2.a":[7.0,0.5,[]]', f'"p2.a":{row}')
+    assert row in text
+    loaded = frozen.loads(text, "gen/keys.json")
+    assert loaded["1001"] == _entries()[:2]
+    with pytest.raises(GradekitError, match="expected the frozen keys written by gradekit generate") as e:
+        loaded["1002"]
+    assert e.value.path == "gen/keys.json"
+
+
+def test_a_corrupt_frozen_key_file_with_its_hash_gives_one_line_naming_it(course):
+    """A keys.json whose hash the manifest holds but whose entries are malformed: one line naming
+    it, exit 1, nothing written (the entries are built while grading, inside the staged output)."""
+    bad = course / "corrupt"
+    shutil.copytree(course / "gen", bad)
+    doc = json.loads((bad / "keys.json").read_text(encoding="utf-8"))
+    first = next(iter(doc["students"]["1002"]))
+    doc["students"]["1002"][first] = ["not a number", 0.1, []]
+    text = json.dumps(doc)
+    (bad / "keys.json").write_text(text, encoding="utf-8")
+    manifest = json.loads((bad / "manifest.json").read_text(encoding="utf-8"))
+    from gradekit import frozen
+
+    manifest["keys"]["sha256"] = frozen.sha256(text)
+    (bad / "manifest.json").write_text(json.dumps(manifest), encoding="utf-8")
+    r = _cli("grade", "hw.yaml", "--roster", "roster.csv", "--submissions", "subs", "--manifest",
+             "corrupt/manifest.json", "--out", "g-corrupt", cwd=course)
+    assert r.returncode == 1
+    assert r.stderr.strip().count("\n") == 0, r.stderr
+    assert "keys.json" in r.stderr and "expected the frozen keys written by gradekit generate" in r.stderr
+    assert not (course / "g-corrupt" / "grades.csv").exists()

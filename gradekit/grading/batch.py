@@ -113,6 +113,28 @@ class IdConflict(IntegrityFlag):
         )
 
 
+@dataclass(frozen=True)
+class StudentKeys:
+    """Every student's key entries for `grade_batch` without building them first (the frozen keys,
+    `gradekit.frozen.FrozenKeys`, build a student's list on first access): each process builds those
+    of the students it grades, and the parent those of the helper's students while the helper grades
+    (copy detection and the helper's grades need every entry).
+
+    ``entries`` per student; ``order``: the students whose entries make the class's key sequence
+    (`all`), in its order; ``answers``: each answer key in that sequence, with its problem, in order
+    of first appearance.
+    """
+
+    entries: Mapping[str, list[KeyEntry]]
+    order: Sequence[str]
+    answers: Mapping[str, str]
+
+    def all(self) -> list[KeyEntry]:
+        """The class's key entries, one student after the other (every student's built now)."""
+        entries = self.entries
+        return [e for sid in self.order for e in entries[sid]]
+
+
 @contextmanager
 def gc_paused() -> Iterator[None]:
     """Pause Python's cyclic garbage collector for a batch (restored after; reference counting
@@ -356,7 +378,7 @@ def _first_section(report: str, section: str) -> str:
 
 
 def grade_batch(
-    keys: Sequence[KeyEntry],
+    keys: Sequence[KeyEntry] | StudentKeys,
     students: Sequence[Student],
     submissions: Path,
     out: Path,
@@ -381,7 +403,8 @@ def grade_batch(
     roster's end (`gradekit.grading.parallel`); the outputs are the same byte for byte.
 
     Args:
-        keys: every student's key entries (grouped by ``student_id`` and ``problem``).
+        keys: every student's key entries (grouped by ``student_id`` and ``problem``), or a
+            `StudentKeys` that builds them as the students are graded.
         students: the roster.
         submissions: the folder of submission files.
         out: the output folder (created; must be empty or a previous gradekit output).
@@ -407,7 +430,7 @@ def grade_batch(
 
 
 def _grade_batch(
-    keys: Sequence[KeyEntry],
+    keys: Sequence[KeyEntry] | StudentKeys,
     students: Sequence[Student],
     submissions: Path,
     out: Path,
@@ -419,7 +442,8 @@ def _grade_batch(
     carry=None,
 ) -> BatchResult:
     submissions, out = Path(submissions), Path(out)
-    if not keys:
+    lazy = keys if isinstance(keys, StudentKeys) else None
+    if not (lazy.answers if lazy is not None else keys):
         raise GradekitError("expected answer keys, got none")
     if not students:
         raise GradekitError("expected a roster with students, got none")
@@ -428,8 +452,10 @@ def _grade_batch(
     files, ignored = _walk(submissions, skip)
     _check_out(out, submissions)
     ids = IdIndex(students)
-    key_index = KeyIndex(map(_KEY, keys))
-    entries = _entries(keys)
+    if lazy is not None:
+        key_index, entries = KeyIndex(lazy.answers), lazy.entries
+    else:
+        key_index, entries = KeyIndex(map(_KEY, keys)), _entries(keys)
     by_id = {s.student_id: s for s in students}
     found = [ids.from_path(relative) for _, _, relative in files]
     named = [next(iter(f)) if len(f) == 1 else None for f in found]
@@ -437,7 +463,7 @@ def _grade_batch(
     if theirs:
         log.debug("a helper process reads, grades and writes the feedback of %d of %d students", len(theirs),
                  len(students))
-    problems = list(dict.fromkeys(map(_PROBLEM, keys)))
+    problems = list(dict.fromkeys(lazy.answers.values() if lazy is not None else map(_PROBLEM, keys)))
     names = safe_names(s.student_id for s in students)
     with StagedFolder(out, MARKER) as stage:
         root = stage.root
@@ -472,6 +498,8 @@ def _grade_batch(
             chosen = {sid: sub for sid, sub in _choose(s for subs in per_file.values() for s in subs).items()
                       if sid not in theirs}
             mine = [None if s.student_id in theirs else graded(s, chosen) for s in students]
+            if lazy is not None:
+                keys = lazy.all()  # the entries of the helper's students too, built while it grades them
             prepared = class_keys(keys)  # the keys' part of copy detection, while the helper grades
             records, packed = other.result() if theirs else ([], [])
         helped = {}
