@@ -11,6 +11,7 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import json
+from collections.abc import Mapping
 from dataclasses import dataclass, replace
 from pathlib import Path
 
@@ -298,7 +299,7 @@ def tolerance_table_hash(asg: Assignment) -> str:
     return h.hexdigest()
 
 
-def frozen_keys(path: Path) -> dict[str, list[KeyEntry]] | None:
+def frozen_keys(path: Path) -> Mapping[str, list[KeyEntry]] | None:
     """The keys frozen by generate beside *path* (a manifest.json), verified; None for an older run."""
     data = _manifest_data(path)
     info = data.get("keys") or {}
