@@ -185,3 +185,23 @@ def test_a_packed_grade_unpacks_to_the_same_grade(subs: Path) -> None:
             assert unpack(pack(grade), student, by_student[sub.student_id]) == grade
             seen += 1
     assert seen == N + 3  # 39 students' files, a second file, a late one, the class-wide file's two
+
+
+def test_a_helper_needs_a_core_idle_now_not_a_quiet_last_minute(monkeypatch):
+    """The free core is judged from what the cores do now: one and a half idle (this process's
+    and another); the minute's load average, which still counts this run's own start, only where
+    the kernel's counters are missing."""
+    idle = parallel._idle_cores(0.05)
+    if idle is not None:  # Linux: a fraction of the cores this process may use, measured
+        assert 0.0 <= idle <= parallel.cores() + 1e-9
+    monkeypatch.setattr(parallel, "_idle_cores", lambda seconds=0.1: 1.9)
+    monkeypatch.setattr(parallel.os, "getloadavg", lambda: (5.0, 5.0, 5.0))  # a busy last minute
+    assert parallel.spare_core()
+    monkeypatch.setattr(parallel, "_idle_cores", lambda seconds=0.1: 1.2)
+    monkeypatch.setattr(parallel.os, "getloadavg", lambda: (0.0, 0.0, 0.0))
+    assert not parallel.spare_core()
+    monkeypatch.setattr(parallel, "_idle_cores", lambda seconds=0.1: None)
+    monkeypatch.setattr(parallel, "cores", lambda: 2)
+    assert parallel.spare_core()
+    monkeypatch.setattr(parallel.os, "getloadavg", lambda: (1.6, 1.0, 1.0))
+    assert not parallel.spare_core()

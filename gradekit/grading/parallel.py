@@ -14,6 +14,7 @@ import os
 import pickle
 import signal
 import threading
+import time
 import traceback
 import warnings
 from array import array
@@ -49,10 +50,35 @@ def available() -> bool:
     return hasattr(os, "fork") and threading.active_count() == 1 and cores() >= 2
 
 
+def _idle_cores(seconds: float = 0.1) -> float | None:
+    """How many cores sat idle over the next *seconds* (this process sleeps meanwhile), from the
+    kernel's counters in ``/proc/stat``; None where there are none (not Linux)."""
+    def sample() -> tuple[int, int]:
+        with open("/proc/stat", encoding="ascii") as f:
+            fields = [int(x) for x in f.readline().split()[1:]]
+        return fields[3] + fields[4], sum(fields)  # idle + iowait, all
+
+    try:
+        idle0, total0 = sample()
+        time.sleep(seconds)
+        idle1, total1 = sample()
+    except (OSError, ValueError, IndexError):
+        return None
+    if total1 <= total0:
+        return None
+    return cores() * (idle1 - idle0) / (total1 - total0)
+
+
 def spare_core() -> bool:
-    """A core is free for a helper: the load average of the last minute (which counts this process)
-    leaves more than half a core idle. When other work keeps the cores busy a helper only competes
-    with it, and the extra work of handing grades back makes the run slower (``make -l`` likewise)."""
+    """A core is free for a helper: over a short look (0.1 s, this process asleep; the kernel counts
+    in 10 ms ticks, so a shorter look is coarse) at least one and a half cores sat idle, so another
+    one besides this process's. When other work keeps the cores
+    busy a helper only competes with it, and the extra work of handing grades back makes the run
+    slower (``make -l`` likewise). Without the kernel's counters, the load average of the last
+    minute (which lags: it still counts what this process did while loading) must leave half a core."""
+    idle = _idle_cores()
+    if idle is not None:
+        return idle >= 1.5
     try:
         return os.getloadavg()[0] < cores() - 0.5
     except (AttributeError, OSError):
