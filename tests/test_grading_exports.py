@@ -102,6 +102,22 @@ def test_compare_and_diagnose(raw: str, unit: str, correct: bool, diagnosis: str
     assert result.points == (2.0 if correct else 0.0)
 
 
+@pytest.mark.parametrize(
+    ("raw", "raw_unit", "unit"),
+    [("1.12", "", ""), ("1.125", "N*m", "N*m"), ("1120", "N*mm", "N*mm"), ("9.91", "lbf*in", "lbf*in"),
+     ("1.12", "N·m", "N*m"), ("1.1200", "", ""), ("1.12|", "", "")],
+)
+def test_a_right_answers_fast_feedback_row_is_the_general_one(raw: str, raw_unit: str, unit: str) -> None:
+    """Right answers (most rows) are written by a fast path; it must print what the general path
+    prints from `_answer_cells`, in Markdown and in HTML."""
+    from gradekit.grading import exports
+
+    answer = Answer("p1.T", raw, raw_unit, float(raw.rstrip("|")), unit, 2)
+    result = compare(ENTRY, answer)
+    assert result.correct
+    assert exports._right_rows(result, answer) == exports._any_rows(result, False, "")
+
+
 def test_entry_mistakes_take_precedence_over_generic_ones() -> None:
     entry = KeyEntry(
         "1", "p1", "p1.T", 1.0, "N*m", Tolerance(), mistakes=(Mistake("sign flipped", "custom", -1.0),)

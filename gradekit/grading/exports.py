@@ -272,6 +272,12 @@ def _rows(r: AnswerResult, reveal: bool, hint: str) -> tuple[str, str]:
     answer = r.answer
     if r.correct and not reveal and r.carried is None and r.method_diagnosis is None and answer is not None:
         return _right_rows(r, answer)
+    return _any_rows(r, reveal, hint)
+
+
+def _any_rows(r: AnswerResult, reveal: bool, hint: str) -> tuple[str, str]:
+    """`_rows` of any answer, from `_answer_cells` (the fast path `_right_rows` must equal it)."""
+    answer = r.answer
     cells = _answer_cells(r, reveal, hint)
     key, rest = cells[0], cells[2:]
     md_read, html_read = _read_cells(answer.raw, answer.raw_unit) if answer is not None else ("", "")
