@@ -1,0 +1,74 @@
+"""The combined PDFs: parts concatenated in order, each on an odd page, every bookmark kept and
+pointing at its own page of the combined file."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pikepdf
+import pytest
+
+from gradekit.documents import engine, typeset
+
+
+def _part(folder: Path, name: str, pages: int) -> Path:
+    """A Typst PDF of *pages* pages, a level-1 heading on each, a level-2 one under the last."""
+    body = "\n".join(f"= {name} page {i + 1}\n#pagebreak()" for i in range(pages - 1))
+    body += f"\n= {name} page {pages}\n== {name} detail\n"
+    path = folder / f"{name}.pdf"
+    path.write_bytes(typeset.Compiler(folder).pdf(body))
+    return path
+
+
+def _bookmarks(pdf: pikepdf.Pdf) -> list[tuple[int, str, int]]:
+    """(depth, title, page index) of every bookmark, in outline order."""
+    pages = {p.obj.objgen: i for i, p in enumerate(pdf.pages)}
+    found = []
+    with pdf.open_outline() as outline:
+        def walk(items, depth):
+            for item in items:
+                found.append((depth, item.title, pages[item.destination[0].objgen]))
+                walk(item.children, depth + 1)
+        walk(outline.root, 0)
+    return found
+
+
+@pytest.fixture(scope="module")
+def parts(tmp_path_factory) -> list[Path]:
+    folder = tmp_path_factory.mktemp("parts")
+    return [_part(folder, "A", 3), _part(folder, "B", 2), _part(folder, "C", 1)]
+
+
+def test_each_part_starts_on_an_odd_page_with_its_bookmarks_on_its_pages(parts, tmp_path):
+    target = tmp_path / "all.pdf"
+    engine._concatenate(target, parts, "All", "MEG373")
+    with pikepdf.Pdf.open(target) as pdf:
+        # A: pages 1-3, a blank 4th, B: 5-6, C: 7 (0-based 0-2, 4-5, 6)
+        assert len(pdf.pages) == 7
+        assert pdf.pages[3].obj.Contents.read_bytes() == b""
+        starts = {"A": 0, "B": 4, "C": 6}
+        expected = []
+        for name, count in (("A", 3), ("B", 2), ("C", 1)):
+            expected += [(0, f"{name} page {i + 1}", starts[name] + i) for i in range(count)]
+            expected.append((1, f"{name} detail", starts[name] + count - 1))
+        assert _bookmarks(pdf) == expected
+        assert str(pdf.docinfo["/Title"]) == "All"
+        # every page's content is the part's own, in order
+        with pikepdf.Pdf.open(parts[1]) as b:
+            assert pdf.pages[5].obj.Contents.read_bytes() == b.pages[1].obj.Contents.read_bytes()
+
+
+def test_the_same_parts_give_the_same_bytes(parts, tmp_path):
+    engine._concatenate(tmp_path / "1.pdf", parts, "All", "MEG373")
+    engine._concatenate(tmp_path / "2.pdf", parts, "All", "MEG373")
+    assert (tmp_path / "1.pdf").read_bytes() == (tmp_path / "2.pdf").read_bytes()
+
+
+def test_a_bookmark_without_a_page_of_its_part_goes_to_the_part_start(parts, tmp_path):
+    """A named destination's target is not copied with the part: its bookmark opens the part."""
+    with pikepdf.Pdf.open(parts[1]) as b:
+        b.Root.Outlines.First.Dest = pikepdf.String("nowhere")
+        b.save(tmp_path / "B-named.pdf")
+    engine._concatenate(tmp_path / "all.pdf", [parts[0], tmp_path / "B-named.pdf"], "All", "MEG373")
+    with pikepdf.Pdf.open(tmp_path / "all.pdf") as pdf:
+        assert (0, "B page 1", 4) in _bookmarks(pdf)
