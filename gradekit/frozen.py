@@ -91,7 +91,9 @@ class FrozenKeys(Mapping[str, list[KeyEntry]]):
 
     Students whose tolerance resolved to the same absolute floor share one (frozen) `Tolerance`. The
     records are filled in directly (as `_mistake`), not through their dataclass ``__init__``: equal
-    to those it would make, at a third of the cost.
+    to those it would make, at a third of the cost. An entry's catalogued mistakes (about 1.5 an
+    answer) are checked when it is built but made only when first read (``KeyEntry.mistakes``
+    deferred): grading reads them for wrong answers alone, about a quarter.
     """
 
     def __init__(self, students: dict[str, dict], shared: dict[str, tuple], names: dict[str, str], path: str) -> None:
@@ -125,23 +127,34 @@ class FrozenKeys(Mapping[str, list[KeyEntry]]):
 
     def _build(self, sid: str, rows: dict) -> list[KeyEntry]:
         try:
-            shared, names = self._shared, self._names
+            shared, names, mistakes = self._shared, self._names, self._mistakes
             entries = []
             for key, (value, tol_abs, found) in rows.items():
                 problem, unit, points, description, sign, make, tolerances = shared[key]
                 tol = tolerances.get(tol_abs)
                 if tol is None:
                     tol = tolerances[tol_abs] = make(abs=tol_abs)
-                mistakes = tuple([_mistake(name, names[name], float(v)) for name, v in found]) if found else ()
                 entry = _new(KeyEntry)
                 entry.__dict__.update(
                     student_id=sid, problem=problem, key=key, value=float(value), unit=unit, tolerance=tol,
-                    points=points, description=description, sign_convention=sign, mistakes=mistakes,
+                    points=points, description=description, sign_convention=sign,
                 )
+                if found:
+                    for name, v in found:  # checked now, as the records would be; made when read
+                        names[name]
+                        float(v)
+                    entry.__dict__["_mistakes_later"] = (mistakes, found)
+                else:
+                    entry.__dict__["mistakes"] = ()
                 entries.append(entry)
             return entries
         except (ValueError, KeyError, TypeError, AttributeError) as exc:
             raise _corrupt(exc, self._path) from None
+
+    def _mistakes(self, found: list) -> tuple[Mistake, ...]:
+        """The `Mistake` records of one entry's ``[[name, value], …]`` (checked by `_build`)."""
+        names = self._names
+        return tuple([_mistake(name, names[name], float(v)) for name, v in found])
 
 
 _new = object.__new__

@@ -122,3 +122,28 @@ class KeyEntry:
     description: str = ""
     sign_convention: str = ""
     mistakes: tuple[Mistake, ...] = field(default=())
+
+    def __getstate__(self) -> dict:
+        if "mistakes" not in self.__dict__:  # deferred (`_Deferred`): made now, so a copy stands alone
+            self.mistakes  # noqa: B018
+        return self.__dict__
+
+
+class _Deferred:
+    """``KeyEntry.mistakes`` of an entry made without its mistakes (the frozen keys: most answers are
+    right and never read them): its ``__dict__`` holds ``_mistakes_later``, a pair (function,
+    argument) that makes the tuple, made on first read and kept. An entry made by ``__init__`` holds
+    its tuple and never reaches this (a non-data descriptor: the instance's own value wins); read on
+    the class, it is the field's default."""
+
+    def __get__(self, entry: KeyEntry | None, owner: type | None = None) -> tuple[Mistake, ...]:
+        if entry is None:
+            return ()
+        fields = entry.__dict__
+        make, arg = fields["_mistakes_later"]
+        mistakes = fields["mistakes"] = make(arg)
+        del fields["_mistakes_later"]
+        return mistakes
+
+
+KeyEntry.mistakes = _Deferred()  # after the dataclass took its default
