@@ -45,9 +45,24 @@ def measure(n: int, jobs: int, keys: bool) -> dict:
         seconds = time.perf_counter() - t0
         sizes = {name: (Path(tmp) / "out" / name).stat().st_size
                  for name in ("assignments.pdf", "keys.pdf") if (Path(tmp) / "out" / name).exists()}
+        combine = combine_times(Path(tmp) / "out", n) if keys and n >= 300 else None
     per_min = 60.0 * n / seconds
     return {"students": n, "jobs": jobs, "keys": keys, "seconds": round(seconds, 2),
-            "per_minute": round(per_min, 1), "bytes": sizes}
+            "per_minute": round(per_min, 1), "bytes": sizes, **({"combine": combine} if combine else {})}
+
+
+def combine_times(out: Path, n: int) -> dict[int, float]:
+    """Seconds to concatenate the first n/3 and all n worked keys of a finished run into one PDF (as
+    keys.pdf is made): the time a part must not grow with the class (it did, quadratically, before)."""
+    from gradekit.documents import engine
+
+    parts = sorted((out / "keys").glob("*.pdf"))
+    times = {}
+    for k in (n // 3, n):
+        t = time.perf_counter()
+        engine._concatenate(out / "again.pdf", parts[:k], "again", "bench")
+        times[k] = round(time.perf_counter() - t, 2)
+    return times
 
 
 def breakdown(n: int = 20) -> dict:

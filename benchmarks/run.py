@@ -90,6 +90,12 @@ def _generate_md(res: dict) -> str:
         "The whole `generate` (class draws and keys, every sheet, answer template and worked key, key.csv, "
         "keys.json, both combined PDFs, manifest), one run per configuration, 2 jobs on this 2-core machine."
     )
+    combine = next((r["combine"] for r in res.get("results", []) if r.get("combine")), None)
+    if combine:
+        (k1, t1), (k2, t2) = sorted((int(k), v) for k, v in combine.items())
+        note += (f"\n\nConcatenating the worked keys into one PDF as keys.pdf is made (`combine_times`, after the "
+                 f"{k2}-student run): {k1} keys {t1:g} s, {k2} keys {t2:g} s ({1000 * t1 / k1:.1f} and "
+                 f"{1000 * t2 / k2:.1f} ms a key).")
     parts = res.get("breakdown")
     if parts:
         layout = parts["typst_layout_s_per_student"]
