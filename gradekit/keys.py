@@ -147,3 +147,27 @@ class _Deferred:
 
 
 KeyEntry.mistakes = _Deferred()  # after the dataclass took its default
+
+
+@dataclass(frozen=True)
+class KeyColumns:
+    """A class's key entries as columns, one row an entry, made without the entries (the frozen keys:
+    `gradekit.frozen.FrozenKeys.columns`): what copy detection reads of them
+    (`gradekit.grading.integrity.class_keys`).
+
+    ``students`` in order, a student's ``count`` entries standing together; per entry its answer
+    ``keys``, ``values`` and ``floors`` (the absolute floor of its tolerance, as ``Tolerance.abs``,
+    arrays of floats); per answer key, ``answers`` holds its problem and its tolerance without the
+    floor (``abs`` 0): an entry's tolerance is that one with its own floor.
+    """
+
+    students: list[str]
+    counts: list[int]
+    keys: list[str]
+    values: object  # numpy.ndarray
+    floors: object  # numpy.ndarray
+    answers: dict[str, tuple[str, Tolerance]]
+
+    def tolerance(self, i: int) -> Tolerance:
+        """Entry *i*'s tolerance."""
+        return replace(self.answers[self.keys[i]][1], abs=float(self.floors[i]))

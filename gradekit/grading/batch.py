@@ -29,7 +29,7 @@ from gradekit.grading.exports import (
 from gradekit.grading.integrity import IntegrityFlag, class_keys, find_copies
 from gradekit.grading.parallel import Forked, helper_share, pack, unpack
 from gradekit.grading.reader import IdIndex, KeyIndex, Submission, read_file, special_kind
-from gradekit.keys import KeyEntry
+from gradekit.keys import KeyColumns, KeyEntry
 from gradekit.roster import Student
 
 MARKER = ".gradekit-output"
@@ -133,6 +133,12 @@ class StudentKeys:
         """The class's key entries, one student after the other (every student's built now)."""
         entries = self.entries
         return [e for sid in self.order for e in entries[sid]]
+
+    def columns(self) -> KeyColumns | list[KeyEntry]:
+        """What copy detection reads of `all`: the frozen keys' columns, no entry built
+        (`gradekit.frozen.FrozenKeys.columns`), or else the entries themselves."""
+        columns = getattr(self.entries, "columns", None)
+        return columns(self.order) if columns is not None else self.all()
 
 
 @contextmanager
@@ -499,7 +505,9 @@ def _grade_batch(
                       if sid not in theirs}
             mine = [None if s.student_id in theirs else graded(s, chosen) for s in students]
             if lazy is not None:
-                keys = lazy.all()  # the entries of the helper's students too, built while it grades them
+                keys = lazy.columns()  # copy detection's view of every key, entries not built
+                for sid in theirs:  # the helper's grades are rebuilt on their entries: built while it grades
+                    entries.get(sid)
             prepared = class_keys(keys)  # the keys' part of copy detection, while the helper grades
             records, packed = other.result() if theirs else ([], [])
         helped = {}

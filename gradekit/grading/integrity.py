@@ -38,7 +38,7 @@ from operator import attrgetter
 import numpy as np
 
 from gradekit.grading.compare import StudentGrade
-from gradekit.keys import KeyEntry
+from gradekit.keys import KeyColumns, KeyEntry
 
 KEY_MATCH = "matches classmate's key"
 SHARED_WRONG = "shares wrong answers"
@@ -263,8 +263,11 @@ class ClassKeys:
     period: np.ndarray
 
 
-def class_keys(keys: Sequence[KeyEntry], correlated: float = 0.7) -> ClassKeys:
-    """The part of copy detection that reads the keys alone (see `ClassKeys`)."""
+def class_keys(keys: Sequence[KeyEntry] | KeyColumns, correlated: float = 0.7) -> ClassKeys:
+    """The part of copy detection that reads the keys alone (see `ClassKeys`), from the key entries or
+    the same entries as columns (`KeyColumns`, made without building them: the same result)."""
+    if isinstance(keys, KeyColumns):
+        return _columns_keys(keys, correlated)
     sids = list(map(_STUDENT, keys))
     everyone = list(dict.fromkeys(sids))
     col = {sid: i for i, sid in enumerate(everyone)}
@@ -278,9 +281,43 @@ def class_keys(keys: Sequence[KeyEntry], correlated: float = 0.7) -> ClassKeys:
     bands = _bands(list(map(_TOLERANCE, keys)), values)
     by_key = np.argsort(key_ix, kind="stable")
     starts = np.searchsorted(key_ix[by_key], np.arange(len(names) + 1))
-    first = by_key[starts[:-1]]
-    trial_of = _clusters(names, [keys[i].problem for i in first], everyone, key_ix, cols, values, correlated)
+    problems = [keys[i].problem for i in by_key[starts[:-1]]]  # each key's first entry
     period = np.array([keys[i].tolerance.period for i in by_key[starts[1:] - 1]], float)  # each key's last entry
+    return _class_keys(everyone, col, names, problems, period, key_ix, cols, values, bands, by_key, starts, correlated)
+
+
+def _columns_keys(keys: KeyColumns, correlated: float) -> ClassKeys:
+    """`class_keys` of entries given as columns: each answer key's problem and tolerance (but its
+    floor) are those of all its entries."""
+    everyone = list(dict.fromkeys(s for s, c in zip(keys.students, keys.counts, strict=True) if c))
+    col = {sid: i for i, sid in enumerate(everyone)}
+    names = list(dict.fromkeys(keys.keys))
+    aid = {name: i for i, name in enumerate(names)}
+    n = len(keys.keys)
+    key_ix = np.fromiter(map(aid.__getitem__, keys.keys), np.int64, n)
+    cols = np.repeat(np.array([col.get(s, 0) for s in keys.students], np.int64), keys.counts)
+    values = np.asarray(keys.values, float)
+    tolerances = [keys.answers[name][1] for name in names]
+    rel = np.array([t.rel for t in tolerances], float)
+    bands = np.maximum(rel[key_ix] * np.abs(values), np.asarray(keys.floors, float))
+    for a in (a for a, t in enumerate(tolerances) if t.mode == "sigfigs"):
+        for i in np.flatnonzero(key_ix == a).tolist():
+            bands[i] = keys.tolerance(i).band(float(values[i]))
+    by_key = np.argsort(key_ix, kind="stable")
+    starts = np.searchsorted(key_ix[by_key], np.arange(len(names) + 1))
+    problems = [keys.answers[name][0] for name in names]
+    period = np.array([t.period for t in tolerances], float)
+    return _class_keys(everyone, col, names, problems, period, key_ix, cols, values, bands, by_key, starts, correlated)
+
+
+def _class_keys(
+    everyone: list[str], col: dict[str, int], names: list[str], problems: list[str], period: np.ndarray,
+    key_ix: np.ndarray, cols: np.ndarray, values: np.ndarray, bands: np.ndarray, by_key: np.ndarray,
+    starts: np.ndarray, correlated: float,
+) -> ClassKeys:
+    """`ClassKeys` of the entries' answer (*key_ix*, into *names*), student (*cols*, into *everyone*),
+    value and band; *by_key* orders the entries by answer (stable), each answer's run from *starts*."""
+    trial_of = _clusters(names, problems, everyone, key_ix, cols, values, correlated)
     per_key = {}
     for a, idx in enumerate(np.split(by_key, starts[1:-1])):
         v, w, o = values[idx], bands[idx], cols[idx]
@@ -298,7 +335,7 @@ _STUDENT, _KEY, _VALUE, _TOLERANCE = (attrgetter(f) for f in ("student_id", "key
 
 def find_copies(
     grades: Sequence[StudentGrade],
-    keys: Sequence[KeyEntry],
+    keys: Sequence[KeyEntry] | KeyColumns,
     *,
     alpha: float = 1e-3,
     min_matches: int = 2,
@@ -316,7 +353,7 @@ def find_copies(
     Args:
         grades: the graded students (those without a submission are skipped).
         keys: every student's key entries (students without a submission are still classmates
-            whose key can be copied).
+            whose key can be copied), or the same as columns (`KeyColumns`).
         alpha: the largest corrected chance that is flagged.
         min_matches: at least this many answers in a classmate's bands.
         min_shared: at least this many identical wrong answers.
@@ -332,7 +369,7 @@ def find_copies(
         (one per pair), each with its corrected chance.
     """
     subs = [g for g in grades if g.submission is not None]
-    if not subs or not keys:
+    if not subs or not (keys.keys if isinstance(keys, KeyColumns) else keys):
         return []
     ck = prepared if prepared is not None else class_keys(keys, correlated)
     everyone, col, names, trial_of, per_key, period = ck.everyone, ck.col, ck.names, ck.trial_of, ck.per_key, ck.period
