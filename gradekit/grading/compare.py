@@ -179,10 +179,19 @@ def _diagnoses(entry: KeyEntry, value: float) -> tuple[Mistake | None, Mistake |
     The generic mistakes are made only when no mistake of the entry's own explains *value* (none
     of them is a mistake of method).
     """
-    accepts = entry.tolerance.accepts
+    if not _isfinite(value):  # accepted around nothing
+        return None, None
+    tol = entry.tolerance
+    if tol.mode == "relative" and not tol.period:
+        rel, floor = tol.rel, tol.abs
+
+        def accepts(answer: float, key: float) -> bool:  # tol.accepts(answer, key), the same operations
+            return abs(answer - key) <= max(rel * abs(key), floor) * (1 + 1e-12)
+    else:
+        accepts = tol.accepts
     first = None
     for mistake in entry.mistakes:
-        if math.isfinite(mistake.value) and accepts(value, mistake.value):
+        if _isfinite(mistake.value) and accepts(value, mistake.value):
             if first is None:
                 first = mistake
             if mistake.name in METHOD_MISTAKES:
@@ -191,7 +200,7 @@ def _diagnoses(entry: KeyEntry, value: float) -> tuple[Mistake | None, Mistake |
         return first, None
     named = {m.name for m in entry.mistakes}
     for name, description, mistaken in _generic(entry):  # the record made for the one that fits only
-        if name not in named and math.isfinite(mistaken) and accepts(value, mistaken):
+        if name not in named and _isfinite(mistaken) and accepts(value, mistaken):
             return Mistake(name, description, mistaken), None
     return None, None
 
@@ -224,7 +233,16 @@ def compare(entry: KeyEntry, answer: Answer | None) -> AnswerResult:
     error = value - key  # tol.accepts(value, key), with its difference kept (the same operations)
     if tol.period:
         error = (error + tol.period / 2) % tol.period - tol.period / 2
-    correct = _isfinite(value) and _isfinite(key) and abs(error) <= tol.band(key) * (1 + 1e-12)
+    if _isfinite(value) and _isfinite(key):
+        if tol.mode == "relative":  # tol.band(key), the same operations
+            band = tol.rel * abs(key)
+            if tol.abs > band:
+                band = tol.abs
+        else:
+            band = tol.band(key)
+        correct = abs(error) <= band * (1 + 1e-12)
+    else:
+        correct = False
     turn = 0.0 if tol.period else _turn(entry.unit)
     if turn:
         error = (error + turn / 2) % turn - turn / 2

@@ -8,6 +8,7 @@ import re
 import statistics
 from collections import Counter
 from collections.abc import Mapping, Sequence
+from functools import lru_cache
 from pathlib import Path
 
 from gradekit.csvsafe import atomic_write, write_csv
@@ -338,13 +339,24 @@ _CSS = (
 )
 
 
+@lru_cache(maxsize=2)
+def _heads(reveal: bool) -> tuple[str, str, str]:
+    """A feedback table's head: (Markdown header row, its rule, HTML table start and header row)."""
+    columns = _COLUMNS + ([("correct", "Correct answer")] if reveal else [])
+    return (
+        "| " + " | ".join(t for _, t in columns) + " |",
+        "|" + "---|" * len(columns),
+        "<table><tr>" + "".join(f"<th>{html.escape(t)}</th>" for _, t in columns) + "</tr>",
+    )
+
+
 def feedback_pages(
     grade: StudentGrade, titles: Mapping[str, str], assignment_title: str, reveal: bool, hint: str = "direction"
 ) -> tuple[str, str]:
     """One student's feedback as (Markdown, standalone HTML page), both from one pass over the
     answers; every text is escaped (students wrote some of it)."""
     e = html.escape
-    columns = _COLUMNS + ([("correct", "Correct answer")] if reveal else [])
+    md_head, md_rule, html_head = _heads(reveal)
     s = grade.student
     score = f"Score: {fmt(grade.total)} / {fmt(grade.max_points)} ({grade.percent:.1f} %)"
     title = f"{assignment_title}: feedback for {s.display} ({s.student_id})"
@@ -370,9 +382,6 @@ def feedback_pages(
         if not reveal:
             md += [_MD[UNNAMED_NOTE], ""]
             page.append(f"<p>{_HTML[UNNAMED_NOTE]}</p>")
-    md_head = "| " + " | ".join(t for _, t in columns) + " |"
-    md_rule = "|" + "---|" * len(columns)
-    html_head = "<table><tr>" + "".join(f"<th>{e(t)}</th>" for _, t in columns) + "</tr>"
     rows: dict[str, list[tuple[str, str]]] = {}
     for r in grade.results:
         rows.setdefault(r.entry.problem, []).append(_rows(r, reveal, hint))
