@@ -72,3 +72,21 @@ def test_a_bookmark_without_a_page_of_its_part_goes_to_the_part_start(parts, tmp
     engine._concatenate(tmp_path / "all.pdf", [parts[0], tmp_path / "B-named.pdf"], "All", "MEG373")
     with pikepdf.Pdf.open(tmp_path / "all.pdf") as pdf:
         assert (0, "B page 1", 4) in _bookmarks(pdf)
+
+
+def test_what_a_part_s_pages_inherit_goes_with_them(parts, tmp_path):
+    """A part whose page size and resources sit on its page tree, not on its pages (a direct and an
+    indirect value): every copied page still has them."""
+    with pikepdf.Pdf.open(parts[1]) as b:
+        for page in b.pages:
+            res = page.obj.Resources
+            del page.obj["/MediaBox"]
+            del page.obj["/Resources"]
+        b.Root.Pages.MediaBox = pikepdf.Array([0, 0, 300, 400])
+        b.Root.Pages.Resources = b.make_indirect(res)
+        b.save(tmp_path / "B-inherits.pdf")
+    engine._concatenate(tmp_path / "all.pdf", [parts[0], tmp_path / "B-inherits.pdf"], "All", "MEG373")
+    with pikepdf.Pdf.open(tmp_path / "all.pdf") as pdf:
+        assert len(pdf.pages) == 6  # A 3, a blank, B 2
+        assert [list(map(float, p.mediabox)) for p in pdf.pages[4:]] == [[0, 0, 300, 400]] * 2
+        assert all("/Font" in p.obj.Resources for p in pdf.pages[4:])

@@ -417,10 +417,7 @@ def _concatenate(target: Path, parts: list[Path], title: str, author: str) -> No
     for path in parts:
         with pikepdf.Pdf.open(path) as src:
             node = out.make_indirect(Dictionary(Type=Name.Pages, Parent=root))
-            tree = src.Root.Pages
-            for key in _INHERITED:  # what the part's pages inherit, kept on their node
-                if key in tree:
-                    node[key] = out.copy_foreign(tree[key])
+            _push_inherited(src)
             kids = []
             if total % 2:
                 box = src.pages[0].mediabox
@@ -464,7 +461,19 @@ def _concatenate(target: Path, parts: list[Path], title: str, author: str) -> No
     atomic_write(target, buf.getvalue())
 
 
-_INHERITED = ("/Resources", "/MediaBox", "/CropBox", "/Rotate")  # ISO 32000 table 31
+def _push_inherited(src) -> None:
+    """Give each page of *src* (in memory) what it inherits from its page-tree nodes (ISO 32000
+    table 31), as qpdf does before copying a page: the nodes are not copied with it."""
+    import copy
+
+    for page in src.pages:
+        node = page.obj.get("/Parent")
+        while node is not None:
+            for key in ("/Resources", "/MediaBox", "/CropBox", "/Rotate"):
+                if key in node and key not in page.obj:
+                    value = node[key]
+                    page.obj[key] = value if value.is_indirect else copy.copy(value)
+            node = node.get("/Parent")
 
 
 def _fix_destinations(item, first) -> None:
