@@ -73,7 +73,10 @@ def loads(text: str, path: str) -> FrozenKeys:
         for key, a in doc["answers"].items():
             t = a["tolerance"]
             make = partial(Tolerance, t["mode"], t["rel"], sigfigs=t["sigfigs"], floor=t["floor"], period=t["period"])
-            shared[key] = (a["problem"], a["unit"], a["points"], a["description"], a["sign"], make, {})
+            fields = {"student_id": None, "problem": a["problem"], "key": key, "value": None, "unit": a["unit"],
+                      "tolerance": None, "points": a["points"], "description": a["description"],
+                      "sign_convention": a["sign"]}  # an entry's, in order; the student's three filled in
+            shared[key] = (a["problem"], make, {}, fields)
         students = doc["students"]
         if not isinstance(students, dict):
             raise TypeError(f"students as {type(students).__name__}, expected an object")
@@ -138,7 +141,7 @@ class FrozenKeys(Mapping[str, list[KeyEntry]]):
             values = np.fromiter(map(_FIRST, cells), float, len(cells))
             floors = np.fromiter(map(_SECOND, cells), float, len(cells))
             keys = list(chain.from_iterable(rows))
-            answers = {key: (shared[0], shared[5](abs=0.0)) for key, shared in self._shared.items()}
+            answers = {key: (shared[0], shared[1](abs=0.0)) for key, shared in self._shared.items()}
             return KeyColumns(sids, list(map(len, rows)), keys, values, floors, answers)
         except (ValueError, KeyError, TypeError, AttributeError, IndexError) as exc:
             raise _corrupt(exc, self._path) from None
@@ -148,22 +151,23 @@ class FrozenKeys(Mapping[str, list[KeyEntry]]):
             shared, names, mistakes = self._shared, self._names, self._mistakes
             entries = []
             for key, (value, tol_abs, found) in rows.items():
-                problem, unit, points, description, sign, make, tolerances = shared[key]
+                _, make, tolerances, common = shared[key]
                 tol = tolerances.get(tol_abs)
                 if tol is None:
                     tol = tolerances[tol_abs] = make(abs=tol_abs)
                 entry = _new(KeyEntry)
-                entry.__dict__.update(
-                    student_id=sid, problem=problem, key=key, value=float(value), unit=unit, tolerance=tol,
-                    points=points, description=description, sign_convention=sign,
-                )
+                fields = entry.__dict__
+                fields.update(common)
+                fields["student_id"] = sid
+                fields["value"] = float(value)
+                fields["tolerance"] = tol
                 if found:
                     for name, v in found:  # checked now, as the records would be; made when read
                         names[name]
                         float(v)
-                    entry.__dict__["_mistakes_later"] = (mistakes, found)
+                    fields["_mistakes_later"] = (mistakes, found)
                 else:
-                    entry.__dict__["mistakes"] = ()
+                    fields["mistakes"] = ()
                 entries.append(entry)
             return entries
         except (ValueError, KeyError, TypeError, AttributeError) as exc:
