@@ -270,15 +270,16 @@ class StagedFolder:
             note = "gradekit was interrupted while writing this folder: its files may mix two runs. Run it again.\n"
             atomic_write(self.out / self.INCOMPLETE, note)
             # a folder OUT does not have yet moves in with one rename (thousands of feedback files)
-            moved = [d for d in whole if not os.path.lexists(self.out / d)]
-            moved = [d for d in moved if not any(d.startswith(f"{m}/") for m in moved)]
-            for d in moved:
-                (self.out / d).parent.mkdir(parents=True, exist_ok=True)
-                os.replace(self.root / d, self.out / d)
+            moved: set[str] = set()
+            for d in whole:  # shallowest first: a folder inside one that moved went with it
+                if not _under(d, moved) and not os.path.lexists(self.out / d):
+                    (self.out / d).parent.mkdir(parents=True, exist_ok=True)
+                    os.replace(self.root / d, self.out / d)
+                    moved.add(d)
             made: set[str] = set()
             for rel in staged:
                 folder, _, _ = rel.rpartition("/")
-                if any(rel.startswith(f"{m}/") for m in moved):
+                if _under(rel, moved):
                     continue
                 if folder not in made:
                     (self.out / folder).mkdir(parents=True, exist_ok=True)
@@ -295,6 +296,17 @@ class StagedFolder:
             atomic_write(self.out / self.listing, listing)
             (self.out / self.INCOMPLETE).unlink()
         return [self.out / rel for rel in staged]
+
+
+def _under(rel: str, folders: set[str]) -> bool:
+    """Whether ``/``-separated *rel* lies inside one of *folders* (looked up by its ancestors, so a
+    class of folders costs no more per path than a few)."""
+    i = rel.find("/")
+    while i >= 0:
+        if rel[:i] in folders:
+            return True
+        i = rel.find("/", i + 1)
+    return False
 
 
 def _remove_empty(folder: Path, rel: Path) -> None:
