@@ -20,6 +20,8 @@ import warnings
 from array import array
 from collections.abc import Callable, Sequence
 from dataclasses import replace
+from itertools import chain
+from operator import attrgetter
 
 from gradekit.grading.compare import AnswerResult, ProblemScore, StudentGrade
 from gradekit.grading.reader import Answer, Issue, Submission
@@ -186,10 +188,10 @@ def _outcome(work: Callable[[], object]) -> bytes:
 
 def _floats(values: list[float | None]) -> tuple[bytes, bytes]:
     """Optional floats as (their bytes, which are None), exactly (-0.0 and infinities too)."""
+    if None not in values:  # (no float equals None)
+        return array("d", values).tobytes(), b""
     none = [v is None for v in values]
-    if any(none):
-        values = [0.0 if v is None else v for v in values]
-    return array("d", values).tobytes(), bytes(none)
+    return array("d", [0.0 if v is None else v for v in values]).tobytes(), bytes(none)
 
 
 def _unfloats(data: bytes, none: bytes) -> list[float | None]:
@@ -201,6 +203,9 @@ def _unfloats(data: bytes, none: bytes) -> list[float | None]:
 
 
 _SEP = "\x00"  # joins a student's texts: no cell, unit or message holds a NUL (the reader refuses them)
+_TEXTS = attrgetter("key", "raw", "raw_unit", "unit", "field", "issue")  # an answer's, in `Answer`'s order
+_NUMBER, _LINE, _ANSWER, _CORRECT, _MESSAGE = map(attrgetter, ("number", "line", "answer", "correct", "message"))
+_VALUE, _REL, _ABS, _ERROR, _POINTS = map(attrgetter, ("value", "rel_error", "abs_error", "error", "points"))
 
 
 def pack(grade: StudentGrade) -> tuple:
@@ -214,9 +219,10 @@ def pack(grade: StudentGrade) -> tuple:
     if sub is None:
         raise ValueError("expected a graded submission, got none")
     answers, results = sub.answers, grade.results
-    where = {id(a): i for i, a in enumerate(answers)}
-    texts = [t for a in answers for t in (a.key, a.raw, a.raw_unit, a.unit, a.field, a.issue)]
-    texts += [r.message for r in results]
+    where = dict(zip(map(id, answers), range(len(answers)), strict=True))
+    where[id(None)] = -1  # no answer
+    texts = list(chain.from_iterable(map(_TEXTS, answers)))
+    texts += map(_MESSAGE, results)
     joined = _SEP.join(texts)
     if texts and joined.count(_SEP) != len(texts) - 1:
         raise ValueError("expected texts without NUL characters")
@@ -234,14 +240,14 @@ def pack(grade: StudentGrade) -> tuple:
         tuple((p.problem, p.points, p.max_points) for p in grade.problems),
         len(answers),
         joined,
-        _floats([a.number for a in answers]),
-        array("q", [a.line for a in answers]).tobytes(),
-        array("q", [-1 if r.answer is None else where[id(r.answer)] for r in results]).tobytes(),
-        bytes([r.correct for r in results]),
-        _floats([r.value for r in results]),
-        _floats([r.rel_error for r in results]),
-        _floats([r.abs_error for r in results]),
-        _floats([r.error for r in results]),
+        _floats(list(map(_NUMBER, answers))),
+        array("q", map(_LINE, answers)).tobytes(),
+        array("q", map(where.__getitem__, map(id, map(_ANSWER, results)))).tobytes(),
+        bytes(map(_CORRECT, results)),
+        _floats(list(map(_VALUE, results))),
+        _floats(list(map(_REL, results))),
+        _floats(list(map(_ABS, results))),
+        _floats(list(map(_ERROR, results))),
         mistakes,
         carried,
     )
@@ -252,34 +258,28 @@ def unpack(data: tuple, student: Student, entries: Sequence[KeyEntry]) -> Studen
     head, sub_issues, issues, problems, n, texts, numbers, lines, at, correct, value, rel, err, error = data[:14]
     mistakes, carried = data[14:]
     texts = texts.split(_SEP) if texts or n or entries else []
-    numbers = _unfloats(*numbers)
     line_numbers = array("q")
     line_numbers.frombytes(lines)
-    answers = tuple(
-        Answer(texts[6 * i], texts[6 * i + 1], texts[6 * i + 2], numbers[i], texts[6 * i + 3], line, texts[6 * i + 4],
-               texts[6 * i + 5])
-        for i, line in enumerate(line_numbers.tolist())
-    )
+    answers = tuple(map(
+        Answer, texts[0 : 6 * n : 6], texts[1 : 6 * n : 6], texts[2 : 6 * n : 6], _unfloats(*numbers),
+        texts[3 : 6 * n : 6], line_numbers.tolist(), texts[4 : 6 * n : 6], texts[5 : 6 * n : 6],
+    ))
     path, sid, claimed, readable, mtime, class_wide, named, conflicts = head
     sub = Submission(path, sid, answers, tuple(Issue(*i) for i in sub_issues), claimed, readable, mtime, class_wide,
                      named, conflicts)
     which = array("q")
     which.frombytes(at)
-    if len(which) != len(entries):
+    if len(which) != len(entries) or len(correct) != len(entries) or len(texts) != 6 * n + len(entries):
         raise ValueError(f"expected {len(entries)} results for {student.student_id}, got {len(which)}")
     found: list[list[Mistake | None]] = [[None] * len(entries), [None] * len(entries)]  # diagnosis, of method
     for i, kind, *m in mistakes:
         found[kind][i] = Mistake(*m)
-    rebuilt = [
-        AnswerResult(
-            entry, None if a < 0 else answers[a], v, ok == 1, entry.points if ok else 0.0, r, e, diagnosis, message,
-            d, method,
-        )
-        for entry, a, ok, v, r, e, diagnosis, message, d, method in zip(
-            entries, which.tolist(), correct, _unfloats(*value), _unfloats(*rel), _unfloats(*err), found[0],
-            texts[6 * n :], _unfloats(*error), found[1], strict=True,
-        )
-    ]
+    verdicts = [ok == 1 for ok in correct]
+    earned = [e.points if ok else 0.0 for e, ok in zip(entries, verdicts, strict=True)]
+    rebuilt = list(map(
+        AnswerResult, entries, map((*answers, None).__getitem__, which.tolist()), _unfloats(*value), verdicts, earned,
+        _unfloats(*rel), _unfloats(*err), found[0], texts[6 * n :], _unfloats(*error), found[1],
+    ))
     for i, points, c in carried:  # carried-forward credit: the points and the record behind them
         rebuilt[i] = replace(rebuilt[i], points=points, carried=c)
     scores = tuple(ProblemScore(*p) for p in problems)
