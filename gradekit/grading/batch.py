@@ -6,7 +6,7 @@ import gc
 import logging
 import os
 from collections.abc import Iterable, Iterator, Mapping, Sequence
-from contextlib import contextmanager, nullcontext
+from contextlib import closing, contextmanager, nullcontext
 from dataclasses import astuple, dataclass
 from itertools import groupby
 from operator import attrgetter
@@ -27,7 +27,7 @@ from gradekit.grading.exports import (
     write_text,
 )
 from gradekit.grading.integrity import IntegrityFlag, class_keys, find_copies
-from gradekit.grading.parallel import Forked, helper_share, pack, unpack
+from gradekit.grading.parallel import Claims, Forked, helper_share, pack, unpack
 from gradekit.grading.reader import IdIndex, KeyIndex, Submission, read_file, special_kind
 from gradekit.keys import KeyColumns, KeyEntry
 from gradekit.roster import Student
@@ -465,10 +465,15 @@ def _grade_batch(
     by_id = {s.student_id: s for s in students}
     found = [ids.from_path(relative) for _, _, relative in files]
     named = [next(iter(f)) if len(f) == 1 else None for f in found]
-    theirs = _helper_share(students, named)
-    if theirs:
-        log.debug("a helper process reads, grades and writes the feedback of %d of %d students", len(theirs),
-                 len(students))
+    share = _helper_share(students, named)  # the students a helper may take: shared out as both work
+    theirs = set(share)
+    if share:
+        log.debug("a helper process reads, grades and writes the feedback of up to %d of %d students", len(share),
+                  len(students))
+    files_of: dict[str, list[int]] = {}
+    for i, sid in enumerate(named):
+        if sid in theirs:
+            files_of.setdefault(sid, []).append(i)
     problems = list(dict.fromkeys(lazy.answers.values() if lazy is not None else map(_PROBLEM, keys)))
     names = safe_names(s.student_id for s in students)
     with StagedFolder(out, MARKER) as stage:
@@ -489,33 +494,49 @@ def _grade_batch(
             write_staged(feedback / f"{stem}.html", page)
             return g
 
-        def helper() -> tuple[list[tuple], list[tuple]]:
-            """The helper's share: the files named for its students; their grades and feedback."""
-            per_file = read([i for i, sid in enumerate(named) if sid in theirs])
+        def take(which: range) -> tuple[dict[int, list[Submission]], dict[str, Submission]]:
+            """The files of the students *which* (indices into the share) read, and each one's submission."""
+            per_file = read([i for j in which for i in files_of[share[j]]])
             chosen = _choose(sub for subs in per_file.values() for sub in subs)
-            if chosen.keys() != theirs:  # a file named for a student answers for that student alone
-                raise RuntimeError(f"expected submissions of {len(theirs)} students, got {len(chosen)}")
-            done = [graded(by_id[sid], chosen) for sid in chosen]
-            records = [(i, *astuple(_record(files[i][1], subs, chosen))) for i, subs in per_file.items()]
-            return records, [pack(g) for g in done]
+            if chosen.keys() != {share[j] for j in which}:  # a file named for a student answers for them alone
+                raise RuntimeError(f"expected submissions of {len(which)} students, got {len(chosen)}")
+            return per_file, chosen
 
-        with Forked(helper) if theirs else nullcontext() as other:
+        def helper() -> tuple[list[tuple], list[tuple]]:
+            """The helper's share: the files named for the students it takes; their grades and feedback."""
+            records, packed = [], []
+            for which in claims.back():
+                per_file, chosen = take(which)
+                packed += [pack(graded(by_id[sid], chosen)) for sid in chosen]
+                records += [(i, *astuple(_record(files[i][1], subs, chosen))) for i, subs in per_file.items()]
+            return records, packed
+
+        claims = Claims(len(share)) if share else None
+        with Forked(helper) if share else nullcontext() as other, closing(claims) if share else nullcontext():
             per_file = read([i for i, sid in enumerate(named) if sid not in theirs])
             chosen = {sid: sub for sid, sub in _choose(s for subs in per_file.values() for s in subs).items()
                       if sid not in theirs}
             mine = [None if s.student_id in theirs else graded(s, chosen) for s in students]
             if lazy is not None:
                 keys = lazy.columns()  # copy detection's view of every key, entries not built
-                for sid in theirs:  # the helper's grades are rebuilt on their entries: built while it grades
+                for sid in share:  # built now, while the helper grades: each is graded or rebuilt here
                     entries.get(sid)
             prepared = class_keys(keys)  # the keys' part of copy detection, while the helper grades
-            records, packed = other.result() if theirs else ([], [])
+            taken: dict[str, StudentGrade] = {}
+            if claims is not None:  # then the helper's share from the front, until the two meet
+                for which in claims.front():
+                    more, chosen_now = take(which)
+                    per_file.update(more)
+                    chosen.update(chosen_now)
+                    taken.update((sid, graded(by_id[sid], chosen)) for sid in chosen_now)
+            records, packed = other.result() if share else ([], [])
         helped = {}
         for data in packed:
             sid = data[0][1]
             helped[sid] = unpack(data, by_id[sid], entries.get(sid, []))
             chosen[sid] = helped[sid].submission
-        grades = [g if g is not None else helped[s.student_id] for g, s in zip(mine, students, strict=True)]
+        taken.update(helped)
+        grades = [g if g is not None else taken[s.student_id] for g, s in zip(mine, students, strict=True)]
         record = {i: FileRecord(*fields) for i, *fields in records}
         record.update((i, _record(files[i][1], subs, chosen)) for i, subs in per_file.items())
         intake_files = tuple([record[i] for i in range(len(files))] + ignored)
@@ -542,11 +563,11 @@ def _grade_batch(
     return BatchResult(tuple(grades), intake_files, tuple(flags), out, tuple(written))
 
 
-def _helper_share(students: Sequence[Student], named: Sequence[str | None]) -> set[str]:
-    """The students a helper process grades (see `parallel.helper_share`): of those whose file's name
+def _helper_share(students: Sequence[Student], named: Sequence[str | None]) -> list[str]:
+    """The students a helper process may grade (see `parallel.helper_share`): of those whose file's name
     points to them, the roster's last; none when the roster repeats an id."""
     if len({s.student_id for s in students}) < len(students):
-        return set()
+        return []
     has_file = set(named)
     return helper_share([s.student_id for s in students if s.student_id in has_file])
 
