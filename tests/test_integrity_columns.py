@@ -3,6 +3,7 @@ entries: the same class keys, and the same flags, as from the entries."""
 
 from __future__ import annotations
 
+import math
 import random
 
 import numpy as np
@@ -79,3 +80,28 @@ def test_a_malformed_row_names_the_file_when_the_columns_are_made():
     text = frozen.dumps([KeyEntry("1001", "p1", "p1.T", 2.0, "N", Tolerance())]).replace("[2.0,0.0,[]]", '["x",0.0,[]]')
     with pytest.raises(GradekitError, match="expected the frozen keys written by gradekit generate"):
         frozen.loads(text, "keys.json").columns(["1001"])
+
+
+def test_results_without_a_finite_value_or_of_an_unknown_answer_are_no_evidence(klass):  # noqa: F811
+    """Submitted values are read from the results as columns: a result without a value, with NaN or an
+    infinity, or of an answer no key has, adds nothing (the same flags as without them)."""
+    from dataclasses import replace
+
+    from gradekit.grading.compare import AnswerResult
+
+    grades, keys, *_ = klass
+    stranger = KeyEntry(grades[0].student.student_id, "p9", "p9.zz", 1.0, "N", Tolerance())
+    padded = []
+    for i, g in enumerate(grades):
+        extra = ()
+        if i % 3 == 0:
+            e = g.results[0].entry
+            extra = (
+                AnswerResult(e, None, None, False, 0.0, None, None),
+                AnswerResult(e, None, math.nan, False, 0.0, None, None),
+                AnswerResult(e, None, math.inf, False, 0.0, None, None),
+                AnswerResult(stranger, None, e.value, False, 0.0, None, None),
+            )
+        padded.append(replace(g, results=g.results + extra))
+    flags = find_copies(grades, keys)
+    assert flags and find_copies(padded, keys) == flags

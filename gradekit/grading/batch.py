@@ -5,6 +5,7 @@ from __future__ import annotations
 import gc
 import logging
 import os
+import time
 from collections.abc import Iterable, Iterator, Mapping, Sequence
 from contextlib import closing, contextmanager, nullcontext
 from dataclasses import astuple, dataclass
@@ -529,7 +530,11 @@ def _grade_batch(
                     per_file.update(more)
                     chosen.update(chosen_now)
                     taken.update((sid, graded(by_id[sid], chosen)) for sid in chosen_now)
+            waited = time.perf_counter()
             records, packed = other.result() if share else ([], [])
+            if share:
+                log.debug("the helper graded %d students, the parent %d of the share; the parent waited %.2f s",
+                          len(packed), len(taken), time.perf_counter() - waited)
         helped = {}
         for data in packed:
             sid = data[0][1]

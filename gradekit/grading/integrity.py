@@ -33,6 +33,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from itertools import chain, repeat
 from operator import attrgetter
 
 import numpy as np
@@ -331,6 +332,7 @@ def _class_keys(
 
 
 _STUDENT, _KEY, _VALUE, _TOLERANCE = (attrgetter(f) for f in ("student_id", "key", "value", "tolerance"))
+_ENTRY, _CORRECT = attrgetter("entry"), attrgetter("correct")
 
 
 def find_copies(
@@ -386,17 +388,19 @@ def find_copies(
     sub_col = np.array([col[g.student.student_id] for g in subs])
     n_trials = max(trial_of.values()) + 1
     # per answer key: the submitted values (student row, value, wrong for them), keys in the order first answered
-    given = [
-        (row, a, r.value, not r.correct)
-        for row, g in enumerate(subs)
-        for r in g.results
-        if r.value is not None and (a := aid.get(r.entry.key)) is not None
-    ]
+    # every result as columns (student row, answer, value, wrong for them), then those with a finite value
+    # of an answer of the keys
+    results = [g.results for g in subs]
+    flat = list(chain.from_iterable(results))
+    n = len(flat)
+    g_row = np.repeat(np.arange(n_sub), list(map(len, results)))
+    g_key = np.fromiter(map(aid.get, map(_KEY, map(_ENTRY, flat)), repeat(-1)), np.int64, n)
+    g_x = np.array(list(map(_VALUE, flat)), dtype=float)  # None (no value) as NaN
+    g_wrong = ~np.fromiter(map(_CORRECT, flat), bool, n)
+    given = np.isfinite(g_x) & (g_key >= 0)
+    g_row, g_key, g_x, g_wrong = g_row[given], g_key[given], g_x[given], g_wrong[given]
     answered: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
-    if given:
-        g_row, g_key, g_x, g_wrong = (np.array(z) for z in zip(*given, strict=True))
-        finite = np.isfinite(g_x)
-        g_row, g_key, g_x, g_wrong = g_row[finite], g_key[finite], g_x[finite], g_wrong[finite]
+    if len(g_x):
         order = np.argsort(g_key, kind="stable")
         bounds = np.flatnonzero(np.diff(g_key[order])) + 1
         groups = np.split(order, bounds) if len(order) else []
@@ -474,7 +478,7 @@ def find_copies(
             share_hits.append((code, np.full(len(si), a, np.int32)))
 
     flags: list[IntegrityFlag] = []
-    own = [sum(r.correct for r in g.results) for g in subs]
+    own = [sum(map(_CORRECT, r)) for r in results]
     looks = []
     for hits, probs in ((band_hits, p_band), (exact_hits, p_exact)):
         count, other, answers = _best_pairs(hits, n_sub, n_all, n_trials)
