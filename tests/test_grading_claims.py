@@ -84,3 +84,38 @@ def test_whichever_process_is_slower_the_outputs_are_those_of_one(
         assert len(unpacked) < len(in_parent)
     else:
         assert len(unpacked) > len(in_parent)
+
+
+@pytest.mark.skipif(not parallel.available(), reason="needs fork and two cores")
+def test_a_stream_hands_over_what_the_helper_sends_as_it_goes_without_either_waiting():
+    from gradekit.grading.parallel import Stream
+
+    stream = Stream()
+    big = "x" * 200_000  # several times what a pipe holds: the helper never blocks on it
+
+    def helper() -> int:
+        for i in range(50):
+            stream.send((i, big if i % 10 == 0 else i * 1.5))
+        return 50
+
+    got = []
+    with Forked(helper) as other:
+        while len(got) < 50:  # the parent looks whenever it likes; nothing is lost or torn
+            got += stream.receive()
+            time.sleep(0.001)
+        assert other.result() == 50
+    assert stream.receive() == []
+    stream.close()
+    assert got == [(i, big if i % 10 == 0 else i * 1.5) for i in range(50)]
+
+
+def test_a_stream_received_in_the_process_that_sent_it():
+    from gradekit.grading.parallel import Stream
+
+    stream = Stream()
+    assert stream.receive() == []
+    stream.send({"a": [1, 2.5]})
+    stream.send(None)
+    assert stream.receive() == [{"a": [1, 2.5]}, None]
+    assert stream.receive() == []
+    stream.close()

@@ -28,7 +28,7 @@ from gradekit.grading.exports import (
     write_text,
 )
 from gradekit.grading.integrity import IntegrityFlag, class_keys, find_copies
-from gradekit.grading.parallel import Claims, Forked, helper_share, pack, unpack
+from gradekit.grading.parallel import Claims, Forked, Stream, helper_share, pack, unpack
 from gradekit.grading.reader import IdIndex, KeyIndex, Submission, read_file, special_kind
 from gradekit.keys import KeyColumns, KeyEntry
 from gradekit.roster import Student
@@ -503,21 +503,39 @@ def _grade_batch(
                 raise RuntimeError(f"expected submissions of {len(which)} students, got {len(chosen)}")
             return per_file, chosen
 
-        def helper() -> tuple[list[tuple], list[tuple]]:
-            """The helper's share: the files named for the students it takes; their grades and feedback."""
-            records, packed = [], []
+        def helper() -> list[tuple]:
+            """The helper's share: the files named for the students it takes; their grades (sent to the
+            parent a few at a time, as they are made) and feedback; the files' records."""
+            records = []
             for which in claims.back():
                 per_file, chosen = take(which)
-                packed += [pack(graded(by_id[sid], chosen)) for sid in chosen]
+                stream.send([pack(graded(by_id[sid], chosen)) for sid in chosen])
                 records += [(i, *astuple(_record(files[i][1], subs, chosen))) for i, subs in per_file.items()]
-            return records, packed
+            return records
 
-        claims = Claims(len(share)) if share else None
-        with Forked(helper) if share else nullcontext() as other, closing(claims) if share else nullcontext():
+        helped: dict[str, StudentGrade] = {}
+
+        def receive() -> None:
+            """The helper's grades sent so far, rebuilt (between the parent's own, so it never waits)."""
+            for packed in stream.receive():
+                for data in packed:
+                    sid = data[0][1]
+                    helped[sid] = unpack(data, by_id[sid], entries.get(sid, []))
+
+        claims, stream = (Claims(len(share)), Stream()) if share else (None, None)
+        with (
+            Forked(helper) if share else nullcontext() as other,
+            closing(claims) if share else nullcontext(),
+            closing(stream) if share else nullcontext(),
+        ):
             per_file = read([i for i, sid in enumerate(named) if sid not in theirs])
             chosen = {sid: sub for sid, sub in _choose(s for subs in per_file.values() for s in subs).items()
                       if sid not in theirs}
-            mine = [None if s.student_id in theirs else graded(s, chosen) for s in students]
+            mine: list[StudentGrade | None] = []
+            for n, s in enumerate(students):
+                mine.append(None if s.student_id in theirs else graded(s, chosen))
+                if share and n % 8 == 7:
+                    receive()
             if lazy is not None:
                 keys = lazy.columns()  # copy detection's view of every key, entries not built
                 for sid in share:  # built now, while the helper grades: each is graded or rebuilt here
@@ -530,16 +548,15 @@ def _grade_batch(
                     per_file.update(more)
                     chosen.update(chosen_now)
                     taken.update((sid, graded(by_id[sid], chosen)) for sid in chosen_now)
+                    receive()
             waited = time.perf_counter()
-            records, packed = other.result() if share else ([], [])
+            records = other.result() if share else []
             if share:
+                receive()
                 log.debug("the helper graded %d students, the parent %d of the share; the parent waited %.2f s",
-                          len(packed), len(taken), time.perf_counter() - waited)
-        helped = {}
-        for data in packed:
-            sid = data[0][1]
-            helped[sid] = unpack(data, by_id[sid], entries.get(sid, []))
-            chosen[sid] = helped[sid].submission
+                          len(helped), len(taken), time.perf_counter() - waited)
+        for sid, g in helped.items():
+            chosen[sid] = g.submission
         taken.update(helped)
         grades = [g if g is not None else taken[s.student_id] for g, s in zip(mine, students, strict=True)]
         record = {i: FileRecord(*fields) for i, *fields in records}

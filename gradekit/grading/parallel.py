@@ -225,6 +225,59 @@ class Forked:
             self.pipe = None
 
 
+class Stream:
+    """Objects a forked helper sends as it works, for the parent to take whenever it looks: neither
+    side ever waits for the other (`send` in the helper, `receive` in the parent). Made before the fork.
+
+    Each object is pickled to a temporary file, which takes any amount without blocking; its length
+    then goes through a pipe (a few bytes an object: the pipe never fills), so the parent reads only
+    what was written in full (the pipe orders the two).
+    """
+
+    def __init__(self) -> None:
+        import tempfile
+
+        self._file = tempfile.TemporaryFile()
+        self._ready, self._sent = os.pipe()
+        os.set_blocking(self._ready, False)
+        self._written = 0  # the sender's end of the file
+        self._read = 0  # the receiver's
+        self._pending = b""  # length bytes received, not yet a whole length
+
+    def send(self, obj: object) -> None:
+        """Pickle *obj* for the parent (in the helper)."""
+        payload = pickle.dumps(obj, protocol=pickle.HIGHEST_PROTOCOL)
+        view = memoryview(payload)
+        while view:
+            view = view[os.pwrite(self._file.fileno(), view, self._written + len(payload) - len(view)) :]
+        self._written += len(payload)
+        os.write(self._sent, len(payload).to_bytes(8, "little"))
+
+    def receive(self) -> list:
+        """Every object sent in full since the last look, in order (in the parent; never waits)."""
+        try:
+            self._pending += os.read(self._ready, 1 << 16)
+        except BlockingIOError:
+            return []
+        whole = len(self._pending) // 8 * 8
+        sizes = [int.from_bytes(self._pending[i : i + 8], "little") for i in range(0, whole, 8)]
+        self._pending = self._pending[whole:]
+        data = os.pread(self._file.fileno(), sum(sizes), self._read)
+        if len(data) != sum(sizes):
+            raise RuntimeError(f"expected {sum(sizes)} bytes from the helper, got {len(data)}")
+        self._read += len(data)
+        objects, at = [], 0
+        for size in sizes:
+            objects.append(pickle.loads(data[at : at + size]))
+            at += size
+        return objects
+
+    def close(self) -> None:
+        for fd in (self._ready, self._sent):
+            os.close(fd)
+        self._file.close()
+
+
 def _outcome(work: Callable[[], object]) -> bytes:
     """(True, value, "") or (False, exception, traceback) of running *work*, pickled."""
     try:
