@@ -118,6 +118,30 @@ def test_a_right_answers_fast_feedback_row_is_the_general_one(raw: str, raw_unit
     assert exports._right_rows(result, answer) == exports._any_rows(result, False, "")
 
 
+@pytest.mark.parametrize(
+    ("key", "key_unit", "raw", "raw_unit", "unit", "points"),
+    [
+        ("p1.T_<a>|b", "N*m", "1120", "N*mm", "N*mm", 2.0),  # escaped key, converted value
+        ("p1.T_<a>|b", "N*m", "1120", "N*mm", "N*mm", 2.0),  # again: the parts made once, reused
+        ("p2.x", "kN", "1.5", "", "", 1.5),  # no unit given
+        ("p2.x", "kN", "1500", "N", "N", 1.5),  # converted, no brackets to escape
+        ("p2.x", "kN", "1.5e0", "[kN]", "kN", 0.25),  # a value the formatter rewrites; a bracketed unit
+        ("p3.&'\"", "deg", "30", "°", "deg", 1),  # HTML escapes in the key; a written degree sign
+    ],
+)
+def test_the_parts_of_right_rows_made_once_per_answer_give_the_general_rows(
+    key: str, key_unit: str, raw: str, raw_unit: str, unit: str, points: float
+) -> None:
+    from gradekit.grading import exports
+
+    value = float(raw) * {"N*mm": 1e-3, "N": 1e-3}.get(unit, 1.0)
+    entry = KeyEntry("1", "p1", key, value, key_unit, Tolerance(rel=0.01), points)
+    answer = Answer(key, raw, raw_unit, float(raw), unit, 2)
+    result = compare(entry, answer)
+    assert result.correct
+    assert exports._right_rows(result, answer) == exports._any_rows(result, False, "")
+
+
 def test_entry_mistakes_take_precedence_over_generic_ones() -> None:
     entry = KeyEntry(
         "1", "p1", "p1.T", 1.0, "N*m", Tolerance(), mistakes=(Mistake("sign flipped", "custom", -1.0),)

@@ -309,27 +309,52 @@ def _read_cells(raw: str, raw_unit: str) -> tuple[str, str]:
 
 def _right_rows(r: AnswerResult, answer) -> tuple[str, str]:
     """`_rows` of a right answer without *reveal* (most rows): its cells are those `_answer_cells`
-    makes (nothing is off, no mistake is named), written straight into both rows."""
+    makes (nothing is off, no mistake is named), written straight into both rows.
+
+    What a row holds besides the student's value (`_right_parts`) is the same for every row of one
+    answer key written in one unit for the same points: made once. Both escapes act character by
+    character, so the parts are escaped apart; the value as read (`_as_read`: a plain decimal or the
+    formatter's digits) and a converted value (the formatter's) have nothing to escape.
+    """
     entry = r.entry
-    unit = _PRETTY[entry.unit]
-    raw, raw_unit, given_unit = answer.raw, answer.raw_unit, answer.unit
+    raw = answer.raw
+    parts = _RIGHT.get((entry.key, entry.unit, answer.unit, answer.raw_unit, r.points, entry.points))
+    if parts is None:
+        parts = _right_parts(entry.key, entry.unit, answer.unit, answer.raw_unit, r.points, entry.points)
+    md_key, md_raw_unit, md_given, html_key, html_raw_unit, html_given, md_end, html_end, converted = parts
+    md_raw, html_raw = (raw, raw) if not _SPECIAL.search(raw) else (_md_cell(raw), html.escape(raw))
+    read = _as_read(raw, answer.number)
+    if converted is not None:  # "<read> <given unit> = <value> <key's unit>"
+        value = f" = {fmt(r.value, 6)}"
+        md_end, html_end = value + converted[0] + md_end, value + converted[1] + html_end
+    return (md_key + md_raw + md_raw_unit + read + md_given + md_end,
+            html_key + html_raw + html_raw_unit + read + html_given + html_end)
+
+
+_RIGHT: dict[tuple, tuple] = {}
+
+
+def _right_parts(key: str, key_unit: str, given_unit: str, raw_unit: str, earned: float, worth: float) -> tuple:
+    """The parts of a right answer's rows around its values (see `_right_rows`), kept in `_RIGHT`: in
+    Markdown then HTML, the row up to the value written, the bracketed unit written, the Read as
+    cell's unit after the value read; the row's end from the Read as cell's end; and for an answer
+    converted into the key's unit, that unit (Markdown, HTML) after the converted value, else None."""
+    unit = _PRETTY[key_unit]
     given = _PRETTY[given_unit] if given_unit else f"{unit} (no unit given)"
-    parsed = f"{_as_read(raw, answer.number)} {given}".strip()
-    if given_unit and given_unit != entry.unit:
-        parsed += f" = {fmt(r.value, 6)} {unit}"
-    points = _points_cell(r.points, entry.points)
-    md_read, html_read = _read_cells(raw, raw_unit)
-    if _SPECIAL.search(parsed) or _SPECIAL.search(points):
-        md_parsed, html_parsed, md_points, html_points = _MD[parsed], _HTML[parsed], _MD[points], _HTML[points]
-    else:
-        md_parsed = html_parsed = parsed
-        md_points = html_points = points
-    key = entry.key
-    return (
-        f"| {_MD[key]} | {md_read} | {md_parsed} | right |  |  | {md_points} |",
-        f'<tr class="right"><td>{_HTML[key]}</td><td>{html_read}</td><td>{html_parsed}</td><td>right</td>'
-        f"<td></td><td></td><td>{html_points}</td></tr>",
+    given = (" " + given).rstrip()  # as `f"{read} {given}".strip()`: the value read is never blank
+    points = _points_cell(earned, worth)
+    md_raw_unit, html_raw_unit = (f" \\[{_MD[raw_unit]}\\]", f" [{_HTML[raw_unit]}]") if raw_unit else ("", "")
+    converted = (_MD[f" {unit}"], _HTML[f" {unit}"]) if given_unit and given_unit != key_unit else None
+    parts = (
+        f"| {_MD[key]} | ", md_raw_unit + " | ", _MD[given],
+        f'<tr class="right"><td>{_HTML[key]}</td><td>', html_raw_unit + "</td><td>", _HTML[given],
+        f" | right |  |  | {_MD[points]} |", f"</td><td>right</td><td></td><td></td><td>{_HTML[points]}</td></tr>",
+        converted,
     )
+    if len(_RIGHT) > 4096:
+        _RIGHT.clear()
+    _RIGHT[(key, key_unit, given_unit, raw_unit, earned, worth)] = parts
+    return parts
 
 
 _CSS = (
