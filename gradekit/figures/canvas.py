@@ -76,9 +76,16 @@ def text_size(text: str, size: float = SIZE) -> tuple[float, float]:
 
 STEPS = (0.0, 3.0, 6.0, 10.0, 15.0, 21.0, 28.0, 36.0, 46.0, 58.0, 72.0, 90.0)  # stand-offs tried, pt
 LEADER_GAP = 16.0  # a label standing off further than this (pt) gets a leader line to its anchor
+REPAIRS = 3  # earlier labels tried in a stuck label's place (see `Canvas.place`)
+REACH = 20.0  # how far (pt) beyond its own size from an anchor a label counts as in another's way
 _DIRECTIONS = np.c_[np.cos(np.arange(16) * (math.pi / 8)), np.sin(np.arange(16) * (math.pi / 8))]
 _DIRECTIONS[np.abs(_DIRECTIONS) < 1e-12] = 0.0  # the 16 directions a label is tried in, exact on the axes
 _DIRECTIONS.flags.writeable = False
+
+
+def _cost(placed: list) -> float:
+    """What labels cost: their penalties and stand-offs, as `Canvas.put` scores them."""
+    return sum(pen + 0.25 * gap for _t, _a, _b, pen, gap in placed)
 
 
 @dataclass
@@ -150,6 +157,17 @@ def _leader_hits(S: np.ndarray, P: np.ndarray, Q: np.ndarray, pad: float = 0.5) 
     return crossing | (dist < hw + pad)
 
 
+def _lines_hit(H: np.ndarray, S: np.ndarray) -> np.ndarray:
+    """Per row of *H* (K×N: whether candidate k meets segment n of *S*, rows as `_segment_array`
+    gives them), how many lines it meets: a run of consecutive segments of one polyline (an arc's
+    chords, a leader meeting two chords at their common vertex) is one line."""
+    n = H.sum(axis=1)
+    if len(S) > 1:
+        same = (S[1:, 5] == S[:-1, 5]) & (S[1:, 6] - S[:-1, 6] == 1.0)
+        n = n - (H[:, 1:] & H[:, :-1] & same).sum(axis=1)
+    return n
+
+
 def seg_distance(a, b, c, d) -> float:
     """Shortest distance between segments a–b and c–d."""
     a, b, c, d = (np.asarray(v, float) for v in (a, b, c, d))
@@ -172,7 +190,8 @@ class Canvas:
 
     def __init__(self) -> None:
         self.items: list[Item] = []
-        self.segments: list[tuple[np.ndarray, np.ndarray, float]] = []  # p, q, half width
+        self.segments: list[tuple[np.ndarray, np.ndarray, float, int]] = []  # p, q, half width, line
+        self.lines = 0  # lines (polylines) drawn as obstacles so far: a segment's line is its number
         self.boxes: list[tuple[float, float, float, float]] = []  # placed labels and solid marks
         self.pending: list[tuple[float, int, tuple, dict]] = []  # labels placed once all lines are in
         self.placed: list[tuple[str, np.ndarray, np.ndarray, float, float]] = []  # text, anchors, box, penalty, gap
@@ -183,8 +202,9 @@ class Canvas:
         xy = np.asarray(pts, float).reshape(-1, 2)
         self.items.append(Item("line", xy, dict(color=color, lw=lw, ls=ls, gid=gid, z=z, cap=cap)))
         if obstacle:
+            self.lines += 1
             for a, b in zip(xy[:-1], xy[1:], strict=True):
-                self.segments.append((a, b, lw / 2 + 1.0))
+                self.segments.append((a, b, lw / 2 + 1.0, self.lines))
 
     def polygon(self, pts, fc: str = "white", ec: str = BLACK, lw: float = 1.0, z: float = 3.0,
                 gid: str | None = None, obstacle: bool = True) -> None:
@@ -225,7 +245,8 @@ class Canvas:
         self.line(c + r * np.c_[np.cos(t), np.sin(t)], color, lw, ls, gid, z=z, cap="butt", obstacle=False)
         t = np.linspace(a0, a1, max(3, int(abs(a1 - a0) / 0.3) + 1))  # coarse copy for the label placer
         xy = c + r * np.c_[np.cos(t), np.sin(t)]
-        self.segments += [(p, q, lw / 2 + 1.0) for p, q in zip(xy[:-1], xy[1:], strict=True)]
+        self.lines += 1
+        self.segments += [(p, q, lw / 2 + 1.0, self.lines) for p, q in zip(xy[:-1], xy[1:], strict=True)]
         if head:
             tip = c + r * np.array([math.cos(a1), math.sin(a1)])
             back = c + r * np.array([math.cos(a1 - sgn * trim), math.sin(a1 - sgn * trim)])
@@ -245,7 +266,8 @@ class Canvas:
     def penalties(self, boxes: np.ndarray, pad: float = 1.5) -> np.ndarray:
         """Penalty of each candidate label box (K×4: x0, y0, x1, y1): 0 when it touches nothing.
 
-        Overlap with a placed label or mark costs 10 + its area; crossing a line costs 25.
+        Overlap with a placed label or mark costs 10 + its area; crossing a line costs 25 (an arc
+        once, however many of its chords the box meets).
         """
         pen = np.zeros(len(boxes))
         lo, hi = boxes[:, :2].min(axis=0) - 8.0, boxes[:, 2:].max(axis=0) + 8.0
@@ -265,14 +287,16 @@ class Canvas:
             near = np.all(smax > lo, axis=1) & np.all(smin < hi, axis=1)
             S = S[near]
             if len(S):
-                pen += 25.0 * _hits(S, boxes).sum(axis=1)
+                pen += 25.0 * _lines_hit(_hits(S, boxes), S)
         return pen
 
     def _segment_array(self) -> np.ndarray:
-        """`segments` as an N×5 array, rebuilt only when the list changed (appended or replaced)."""
+        """`segments` as an N×7 array (x0, y0, x1, y1, half width, line, row), rebuilt only when the
+        list changed (appended or replaced)."""
         key = (id(self.segments), len(self.segments))
         if getattr(self, "_seg_cache", (None, None))[1] != key:
-            arr = np.array([(p[0], p[1], q[0], q[1], hw) for p, q, hw in self.segments], float).reshape(-1, 5)
+            arr = np.array([(p[0], p[1], q[0], q[1], hw, ln, i) for i, (p, q, hw, ln) in enumerate(self.segments)],
+                           float).reshape(-1, 7)
             self._seg_cache = (arr, key)
         return self._seg_cache[0]
 
@@ -290,10 +314,74 @@ class Canvas:
                              dict(color=color, size=size, clear=clear, prefer=prefer, gid=gid)))
 
     def place(self) -> None:
-        """Place the queued labels (see `put`)."""
+        """Place the queued labels (see `put`), then repair what the order got wrong.
+
+        Labels go in one by one, so an early label may take the only free spot of a later one
+        that has fewer (a short dimension beside a crowded pivot, a force's label at its tail).
+        When a label ends up on a line or another label, each earlier label within its reach is
+        tried in turn, nearest first: both are taken off, the stuck label is put first, then the
+        other; the swap is kept if neither is then on anything and the two cost less than before
+        (`put`'s scores), else undone.
+        """
         pending, self.pending = self.pending, []
-        for _p, _n, args, kw in sorted(pending, key=lambda t: (t[0], t[1])):
+        queue = [(args, kw) for _p, _n, args, kw in sorted(pending, key=lambda t: (t[0], t[1]))]
+        added = []  # per label: what its put added (text, leader, box, placed entry)
+        for args, kw in queue:
+            mark = (len(self.items), len(self.segments), len(self.boxes), len(self.placed))
             self.put(*args, **kw)
+            added.append(self._since(mark))
+        for b in range(len(queue)):
+            if added[b][3][0][3] < 25.0:
+                continue
+            for j in self._in_the_way([a[3][0] for a in added], b)[:REPAIRS]:
+                before = added[b][3][0], added[j][3][0]
+                self._take_off(added[b], added[j])
+                got = []
+                for k in (b, j):
+                    mark = (len(self.items), len(self.segments), len(self.boxes), len(self.placed))
+                    self.put(*queue[k][0], **queue[k][1])
+                    got.append(self._since(mark))
+                after = got[0][3][0], got[1][3][0]
+                if max(after[0][3], after[1][3]) < 25.0 and _cost(after) < _cost(before):
+                    added[b], added[j] = got
+                    break
+                self._take_off(*got)
+                self._put_back(added[b], added[j])
+
+    def _since(self, mark: tuple) -> tuple:
+        ni, ns, nb, npl = mark
+        return self.items[ni:], self.segments[ns:], self.boxes[nb:], self.placed[npl:]
+
+    def _take_off(self, *labels: tuple) -> None:
+        """Remove what `put` added for *labels* (as `_since` gives it) from the drawing."""
+        for attr, i in (("items", 0), ("segments", 1), ("boxes", 2), ("placed", 3)):
+            gone = {id(x) for lab in labels for x in lab[i]}
+            setattr(self, attr, [x for x in getattr(self, attr) if id(x) not in gone])
+        self._seg_cache = self._box_cache = (None, None)
+
+    def _put_back(self, *labels: tuple) -> None:
+        for lab in labels:
+            self.items += lab[0]
+            self.segments += lab[1]
+            self.boxes += lab[2]
+            self.placed += lab[3]
+        self._seg_cache = self._box_cache = (None, None)
+
+    @staticmethod
+    def _in_the_way(placed: list, bad: int) -> list[int]:
+        """The labels placed before *placed*[bad] whose boxes lie within its reach (a leader's
+        length beyond its own size from one of its anchors), nearest first."""
+        _t, A, box, _pen, _gap = placed[bad]
+        reach = (box[2] - box[0]) / 2 + (box[3] - box[1]) / 2 + REACH
+        near = []
+        for j in range(bad):
+            b = placed[j][2]
+            dx = np.maximum(np.maximum(b[0] - A[:, 0], A[:, 0] - b[2]), 0.0)
+            dy = np.maximum(np.maximum(b[1] - A[:, 1], A[:, 1] - b[3]), 0.0)
+            d = float(np.min(np.hypot(dx, dy)))
+            if d < reach:
+                near.append((d, j))
+        return [j for _d, j in sorted(near)]
 
     def put(self, s: str, anchors, color: str = BLACK, size: float = SIZE, clear: float = 4.0,
             prefer=None, gid: str | None = None, steps=STEPS) -> np.ndarray:
@@ -304,7 +392,8 @@ class Canvas:
         anchor, then the direction nearest *prefer*); when none is free, the one with the least
         overlap (a leader across a line costs less than a label on one). A label that has to stand
         off further than `LEADER_GAP` gets a thin leader line to its anchor, so it is never read as
-        naming something else; a leader through a label or mark, or across a line, is an overlap.
+        naming something else; a leader through a label or mark, or across a line (once a line,
+        not the line its anchor lies on, which it leaves from underneath), is an overlap.
         """
         w, h = text_size(s, size)
         A = np.asarray(anchors, float).reshape(-1, 2)
@@ -339,15 +428,22 @@ class Canvas:
             if leader:  # a leader from the anchor's clear circle to the box must cross nothing either
                 start = np.broadcast_to(A[anchor] + D[rank] * clear, C.shape).reshape(-1, 2)
                 end = (A[anchor][None] + D[rank][None] * r[:, None, None]).reshape(-1, 2)
+                # ... but what the anchor lies on (the bar a dimension names, the arrow of a load) it
+                # leaves, drawn under it: checked from where it comes out of that line's width
+                out = np.full(na, clear)
                 if self.segments:
                     S = self._segment_array()
                     lo, hi = np.minimum(start, end).min(axis=0) - 4.0, np.maximum(start, end).max(axis=0) + 4.0
                     S = S[np.all(np.maximum(S[:, :2], S[:, 2:4]) > lo, axis=1)
                           & np.all(np.minimum(S[:, :2], S[:, 2:4]) < hi, axis=1)]
                     if len(S):
-                        pen += 8.0 * _leader_hits(S, start, end).sum(axis=1).reshape(pen.shape)
+                        own = _leader_hits(S, A, A, pad=1.0 - S[:, 4])  # anchor within 1 pt of the centre line
+                        out = np.maximum(clear, np.where(own, S[None, :, 4] + 0.6, 0.0).max(axis=1))
+                check = np.broadcast_to(A[anchor] + D[rank] * out[anchor, None], C.shape).reshape(-1, 2)
+                if self.segments and len(S):
+                    pen += 8.0 * _lines_hit(_leader_hits(S, check, end), S).reshape(pen.shape)
                 if self.boxes:
-                    seg = np.column_stack([start, end, np.full(len(start), 0.5)])
+                    seg = np.column_stack([check, end, np.full(len(start), 0.5)])
                     pen += 25.0 * _hits(seg, self._box_array()).sum(axis=0).reshape(pen.shape)
                 start, end = start.reshape(C.shape), end.reshape(C.shape)
             for g, step in enumerate(group):
@@ -400,7 +496,7 @@ class Canvas:
         d = np.asarray(d, float)
         for it in self.items:
             it.xy = it.xy + d
-        self.segments = [(p + d, q + d, hw) for p, q, hw in self.segments]
+        self.segments = [(p + d, q + d, hw, ln) for p, q, hw, ln in self.segments]
         self.boxes = [(b[0] + d[0], b[1] + d[1], b[2] + d[0], b[3] + d[1]) for b in self.boxes]
         self.placed = [(t, a + d, np.r_[b[:2] + d, b[2:] + d], pen, gap) for t, a, b, pen, gap in self.placed]
         self._seg_cache = self._box_cache = (None, None)  # new lists, same lengths: rebuild
@@ -408,7 +504,8 @@ class Canvas:
     def absorb(self, other: Canvas) -> None:
         other.place()
         self.items += other.items
-        self.segments += other.segments
+        self.segments += [(p, q, hw, ln + self.lines) for p, q, hw, ln in other.segments]
+        self.lines += other.lines
         self.boxes += other.boxes
         self.placed += other.placed
 
