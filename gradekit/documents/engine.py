@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import logging
 import multiprocessing
+import os
 import re
 import shutil
 import sys
@@ -129,7 +130,7 @@ def generate(
                 chunk = max(1, min(8, len(work) // (4 * jobs)))
                 # spawn, not fork: a forked child inherits typst's and matplotlib's threads mid-lock
                 ctx = multiprocessing.get_context("spawn")
-                with ProcessPoolExecutor(jobs, mp_context=ctx, initializer=_init, initargs=(job,)) as pool:
+                with ProcessPoolExecutor(jobs, mp_context=ctx, initializer=_worker_init, initargs=(job,)) as pool:
                     for d in pool.map(_one_packed, work, chunksize=chunk):
                         done[d.student_id] = d
                         bar.update(1)
@@ -211,6 +212,13 @@ def _init(job: _Job, asg: Assignment | None = None, variants: dict | None = None
         variants=variants or {},
         fonts=typeset.available_fonts(),
     )
+
+
+def _worker_init(job: _Job) -> None:
+    """A pool worker: Typst on one thread (its thread pool would otherwise start a thread per core in
+    every worker, so that the workers' threads fight over the cores), then `_init`."""
+    os.environ.setdefault("RAYON_NUM_THREADS", "1")  # read when Typst first starts its pool
+    _init(job)
 
 
 def _one_packed(pair: tuple[Student, str]) -> _Done:
