@@ -327,20 +327,14 @@ class Canvas:
         queue = [(args, kw) for _p, _n, args, kw in sorted(pending, key=lambda t: (t[0], t[1]))]
         added = []  # per label: what its put added (text, leader, box, placed entry)
         for args, kw in queue:
-            mark = (len(self.items), len(self.segments), len(self.boxes), len(self.placed))
-            self.put(*args, **kw)
-            added.append(self._since(mark))
+            added.append(self._put_recorded(args, kw))
         for b in range(len(queue)):
             if added[b][3][0][3] < 25.0:
                 continue
             for j in self._in_the_way([a[3][0] for a in added], b)[:REPAIRS]:
                 before = added[b][3][0], added[j][3][0]
                 self._take_off(added[b], added[j])
-                got = []
-                for k in (b, j):
-                    mark = (len(self.items), len(self.segments), len(self.boxes), len(self.placed))
-                    self.put(*queue[k][0], **queue[k][1])
-                    got.append(self._since(mark))
+                got = [self._put_recorded(*queue[k]) for k in (b, j)]
                 after = got[0][3][0], got[1][3][0]
                 if max(after[0][3], after[1][3]) < 25.0 and _cost(after) < _cost(before):
                     added[b], added[j] = got
@@ -348,12 +342,14 @@ class Canvas:
                 self._take_off(*got)
                 self._put_back(added[b], added[j])
 
-    def _since(self, mark: tuple) -> tuple:
-        ni, ns, nb, npl = mark
+    def _put_recorded(self, args: tuple, kw: dict) -> tuple:
+        """`put` one label; return what it added: (items, segments, boxes, placed entries)."""
+        ni, ns, nb, npl = len(self.items), len(self.segments), len(self.boxes), len(self.placed)
+        self.put(*args, **kw)
         return self.items[ni:], self.segments[ns:], self.boxes[nb:], self.placed[npl:]
 
     def _take_off(self, *labels: tuple) -> None:
-        """Remove what `put` added for *labels* (as `_since` gives it) from the drawing."""
+        """Remove what `put` added for *labels* (as `_put_recorded` returns it) from the drawing."""
         for attr, i in (("items", 0), ("segments", 1), ("boxes", 2), ("placed", 3)):
             gone = {id(x) for lab in labels for x in lab[i]}
             setattr(self, attr, [x for x in getattr(self, attr) if id(x) not in gone])
