@@ -76,7 +76,7 @@ def test_a_bookmark_without_a_page_of_its_part_goes_to_the_part_start(parts, tmp
 
 def test_what_a_part_s_pages_inherit_goes_with_them(parts, tmp_path):
     """A part whose page size and resources sit on its page tree, not on its pages (a direct and an
-    indirect value): every copied page still has them."""
+    indirect value): every copied page still has them (qpdf pushes them onto a page it copies)."""
     with pikepdf.Pdf.open(parts[1]) as b:
         for page in b.pages:
             res = page.obj.Resources

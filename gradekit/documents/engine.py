@@ -410,7 +410,8 @@ def _concatenate(target: Path, parts: list[Path], title: str, author: str) -> No
     already there (8 ms a part at 300 students and growing), and each bookmark took 0.2 ms. Each
     part's pages hang under a page-tree node of their own (a nested page tree, ISO 32000 §7.7.3.2),
     and each part's bookmarks are its own outline items, copied whole: qpdf maps their
-    destinations to the pages copied before them.
+    destinations to the pages copied before them. qpdf gives a page what it inherits from its page
+    tree (size, resources) when it copies the page.
     """
     import io
 
@@ -425,7 +426,6 @@ def _concatenate(target: Path, parts: list[Path], title: str, author: str) -> No
     for path in parts:
         with pikepdf.Pdf.open(path) as src:
             node = out.make_indirect(Dictionary(Type=Name.Pages, Parent=root))
-            _push_inherited(src)
             kids = []
             if total % 2:
                 box = src.pages[0].mediabox
@@ -467,21 +467,6 @@ def _concatenate(target: Path, parts: list[Path], title: str, author: str) -> No
     buf = io.BytesIO()
     out.save(buf, deterministic_id=True)  # the same parts give the same bytes
     atomic_write(target, buf.getvalue())
-
-
-def _push_inherited(src) -> None:
-    """Give each page of *src* (in memory) what it inherits from its page-tree nodes (ISO 32000
-    table 31), as qpdf does before copying a page: the nodes are not copied with it."""
-    import copy
-
-    for page in src.pages:
-        node = page.obj.get("/Parent")
-        while node is not None:
-            for key in ("/Resources", "/MediaBox", "/CropBox", "/Rotate"):
-                if key in node and key not in page.obj:
-                    value = node[key]
-                    page.obj[key] = value if value.is_indirect else copy.copy(value)
-            node = node.get("/Parent")
 
 
 def _fix_destinations(item, first) -> None:
