@@ -61,15 +61,26 @@ def _lbf(text: str) -> str:
     return re.sub(r"\boz\b", "ozf", re.sub(r"\blbs?\b", "lbf", text))
 
 
+# A power in a unit: ** then one digit (a sign and a decimal part allowed), not raised again. pint
+# evaluates powers as numbers, so "9^9^9" (9**387420489) would hang a grading batch.
+_POWER = re.compile(r"\*\*\s*[-+]?\d(\.\d+)?(?![\d.])(?!\s*\*\*)")
+MAX_POWERS = 3  # "kg*m**2/s**2" has 2
+
+
 @lru_cache(maxsize=4096)
 def _parse(text: str):
     if len(text) > MAX_LENGTH:
         raise GradekitError(f"expected a unit of at most {MAX_LENGTH} characters, got {len(text):,}")
     reg = registry()
+    bad = GradekitError(f"expected a unit such as N, N*mm, lbf*in or rad/s**2, got {text!r}")
+    pint_text = normalise(text)
+    powers = pint_text.count("**")
+    if powers > MAX_POWERS or len(_POWER.findall(pint_text)) != powers:
+        raise bad
     try:
-        return reg.parse_units(normalise(text)) if text.strip() else reg.dimensionless
+        return reg.parse_units(pint_text) if text.strip() else reg.dimensionless
     except Exception:  # pint raises several unrelated types for bad input
-        raise GradekitError(f"expected a unit such as N, N*mm, lbf*in or rad/s**2, got {text!r}") from None
+        raise bad from None
 
 
 def check(unit: str) -> None:
