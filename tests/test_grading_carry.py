@@ -224,7 +224,7 @@ def test_a_helper_process_carries_the_same(course, monkeypatch, tmp_path):
     alone = gradekit.grade(tmp / "hw.yaml", tmp / "roster.csv", tmp / "subs", tmp_path / "alone", carry_forward=True)
     monkeypatch.setattr(parallel, "FROM", 1)
     monkeypatch.setattr(parallel, "SHARE", 0.7)
-    monkeypatch.setattr(parallel, "spare_core", lambda: True)
+    monkeypatch.setattr(parallel, "spare_core", lambda since=None: True)
     assert parallel.helper_share(list(IDS))  # the helper takes some of the class
     both = gradekit.grade(tmp / "hw.yaml", tmp / "roster.csv", tmp / "subs", tmp_path / "both", carry_forward=True)
     for sid in IDS:

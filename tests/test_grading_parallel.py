@@ -92,7 +92,7 @@ def _helper(monkeypatch: pytest.MonkeyPatch, share: float) -> None:
     """A helper for the small test class whatever the machine is doing."""
     monkeypatch.setattr(parallel, "FROM", 1)
     monkeypatch.setattr(parallel, "SHARE", share)
-    monkeypatch.setattr(parallel, "spare_core", lambda: True)
+    monkeypatch.setattr(parallel, "spare_core", lambda since=None: True)
 
 
 @pytest.mark.skipif(not parallel.available(), reason="needs fork and two cores")

@@ -28,7 +28,7 @@ from gradekit.grading.exports import (
     write_text,
 )
 from gradekit.grading.integrity import IntegrityFlag, class_keys, find_copies
-from gradekit.grading.parallel import Claims, Forked, Stream, helper_share, pack, unpack
+from gradekit.grading.parallel import Claims, Forked, Look, Stream, helper_share, pack, unpack
 from gradekit.grading.reader import IdIndex, KeyIndex, Submission, read_file, special_kind
 from gradekit.keys import KeyColumns, KeyEntry
 from gradekit.roster import Student
@@ -448,6 +448,7 @@ def _grade_batch(
     hint: str,
     carry=None,
 ) -> BatchResult:
+    look = Look()  # whether a core is free for a helper is seen over the work up to the choice
     submissions, out = Path(submissions), Path(out)
     lazy = keys if isinstance(keys, StudentKeys) else None
     if not (lazy.answers if lazy is not None else keys):
@@ -466,7 +467,7 @@ def _grade_batch(
     by_id = {s.student_id: s for s in students}
     found = [ids.from_path(relative) for _, _, relative in files]
     named = [next(iter(f)) if len(f) == 1 else None for f in found]
-    share = _helper_share(students, named)  # the students a helper may take: shared out as both work
+    share = _helper_share(students, named, look)  # the students a helper may take: shared out as both work
     theirs = set(share)
     if share:
         log.debug("a helper process reads, grades and writes the feedback of up to %d of %d students", len(share),
@@ -585,13 +586,13 @@ def _grade_batch(
     return BatchResult(tuple(grades), intake_files, tuple(flags), out, tuple(written))
 
 
-def _helper_share(students: Sequence[Student], named: Sequence[str | None]) -> list[str]:
+def _helper_share(students: Sequence[Student], named: Sequence[str | None], since: Look | None = None) -> list[str]:
     """The students a helper process may grade (see `parallel.helper_share`): of those whose file's name
     points to them, the roster's last; none when the roster repeats an id."""
     if len({s.student_id for s in students}) < len(students):
         return []
     has_file = set(named)
-    return helper_share([s.student_id for s in students if s.student_id in has_file])
+    return helper_share([s.student_id for s in students if s.student_id in has_file], since)
 
 
 def _unlisted_outputs(out: Path) -> list[str]:

@@ -53,33 +53,56 @@ def available() -> bool:
     return hasattr(os, "fork") and threading.active_count() == 1 and cores() >= 2
 
 
-def _idle_cores(seconds: float = 0.1) -> float | None:
-    """How many cores sat idle over the next *seconds* (this process sleeps meanwhile), from the
-    kernel's counters in ``/proc/stat``; None where there are none (not Linux)."""
-    def sample() -> tuple[int, int]:
+def _counters() -> tuple[int, int] | None:
+    """The kernel's counters of all cores' idle (and iowait) time and of all time, in ticks, from
+    ``/proc/stat``; None where there are none (not Linux)."""
+    try:
         with open("/proc/stat", encoding="ascii") as f:
             fields = [int(x) for x in f.readline().split()[1:]]
-        return fields[3] + fields[4], sum(fields)  # idle + iowait, all
-
-    try:
-        idle0, total0 = sample()
-        time.sleep(seconds)
-        idle1, total1 = sample()
+        return fields[3] + fields[4], sum(fields)
     except (OSError, ValueError, IndexError):
         return None
-    if total1 <= total0:
+
+
+class Look:
+    """The start of a look at how busy the cores are: the kernel's counters, this process's CPU time
+    and the clock. Made as a caller begins the work that leads up to the choice of a helper, it lets
+    `spare_core` look over that work instead of sleeping (at 3,000 students, reading the folder and
+    matching its files to the roster take about as long as the look needs)."""
+
+    def __init__(self) -> None:
+        self.counters = _counters()
+        self.cpu = time.process_time()
+        self.at = time.monotonic()
+
+
+def _idle_cores(seconds: float = 0.1, since: Look | None = None) -> float | None:
+    """How many cores sat idle over at least *seconds*, not counting what this process used: the time
+    since *since* (this process at work meanwhile), else the next *seconds* (asleep); sleeps only for
+    what is left of *seconds*. None where the kernel has no counters (not Linux)."""
+    start = since if since is not None else Look()
+    left = seconds - (time.monotonic() - start.at)
+    if left > 0:
+        time.sleep(left)
+    end = Look()
+    if start.counters is None or end.counters is None:
         return None
-    return cores() * (idle1 - idle0) / (total1 - total0)
+    (idle0, total0), (idle1, total1) = start.counters, end.counters
+    if total1 <= total0 or end.at <= start.at:
+        return None
+    mine = (end.cpu - start.cpu) / (end.at - start.at)  # the cores this process kept busy meanwhile
+    return min(cores() * (idle1 - idle0) / (total1 - total0) + mine, float(cores()))
 
 
-def spare_core() -> bool:
-    """A core is free for a helper: over a short look (0.1 s, this process asleep; the kernel counts
-    in 10 ms ticks, so a shorter look is coarse) at least one and a half cores sat idle, so another
-    one besides this process's. When other work keeps the cores
+def spare_core(since: Look | None = None) -> bool:
+    """A core is free for a helper: over a short look (0.1 s: the kernel counts in 10 ms ticks, so a
+    shorter look is coarse) at least one and a half cores sat idle or busy with this process, so
+    another one besides this process's. The look is the time since *since* when given (this process
+    working meanwhile), else a sleep. When other work keeps the cores
     busy a helper only competes with it, and the extra work of handing grades back makes the run
     slower (``make -l`` likewise). Without the kernel's counters, the load average of the last
     minute (which lags: it still counts what this process did while loading) must leave half a core."""
-    idle = _idle_cores()
+    idle = _idle_cores() if since is None else _idle_cores(since=since)
     if idle is not None:
         return idle >= 1.5
     try:
@@ -88,12 +111,13 @@ def spare_core() -> bool:
         return True
 
 
-def helper_share(candidates: Sequence[str]) -> list[str]:
+def helper_share(candidates: Sequence[str], since: Look | None = None) -> list[str]:
     """The students a helper may grade, of those it could (*candidates*, in roster order): the last
-    `SHARE` of them, or none when they are too few or no helper can be forked or run beside this one.
-    They are shared out between the helper and the parent as both work (`Claims`)."""
+    `SHARE` of them, or none when they are too few or no helper can be forked or run beside this one
+    (`spare_core`, looking since *since* when given). They are shared out between the helper and the
+    parent as both work (`Claims`)."""
     take = int(len(candidates) * SHARE)
-    if take < FROM or not available() or not spare_core():
+    if take < FROM or not available() or not spare_core(since):
         return []
     return list(candidates[len(candidates) - take :])
 
