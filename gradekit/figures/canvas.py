@@ -119,22 +119,57 @@ def _seg_hits_box(p: np.ndarray, q: np.ndarray, box: tuple[float, float, float, 
     return True
 
 
-def _hits(S: np.ndarray, boxes: np.ndarray) -> np.ndarray:
-    """K×N: whether segment n (x0, y0, x1, y1, half width) meets box k, grown by the half width.
+class _Segments:
+    """Segments (rows as `Canvas._segment_array` gives them) with what `meets` and `lines_hit` need
+    of them alone (extents, directions, which rows continue the line of the row before) worked out
+    once, so a canvas pays for it once per change of its segment list, not once per label.
 
-    Separating axes: the segment's bounding box must overlap the box, and the box's corners must
-    not all lie strictly on one side of the segment's line (the extremes of the cross product over
-    a box are its value at the centre ± the half sizes weighted by |dx|, |dy|). Touching counts.
+    Tables are segment × candidate (N×K): numpy runs along the last axis, and there are ~10 times
+    more candidates than segments; the arithmetic is `_hits`'s, value for value.
     """
-    px, py, qx, qy, hw = S[:, 0], S[:, 1], S[:, 2], S[:, 3], S[:, 4]
-    dx, dy = qx - px, qy - py
-    bx0, by0, bx1, by1 = (boxes[:, i, None] for i in range(4))
-    overlap = ((np.minimum(px, qx) <= bx1 + hw) & (np.maximum(px, qx) >= bx0 - hw)
-               & (np.minimum(py, qy) <= by1 + hw) & (np.maximum(py, qy) >= by0 - hw))
-    cx, cy = (bx0 + bx1) / 2, (by0 + by1) / 2
-    hx, hy = (bx1 - bx0) / 2 + hw, (by1 - by0) / 2 + hw
-    side = dx * (cy - py) - dy * (cx - px)
-    return overlap & (np.abs(side) <= np.abs(dx) * hy + np.abs(dy) * hx)
+
+    def __init__(self, S: np.ndarray) -> None:
+        self.S = S
+        px, py, qx, qy, hw = (S[:, i, None] for i in range(5))  # N×1 columns
+        self.px, self.py, self.hw = px, py, hw
+        self.dx, self.dy = qx - px, qy - py
+        self.adx, self.ady = np.abs(self.dx), np.abs(self.dy)
+        self.xlo, self.xhi = np.minimum(px, qx), np.maximum(px, qx)
+        self.ylo, self.yhi = np.minimum(py, qy), np.maximum(py, qy)
+        # row n + 1 goes on from row n: one polyline (same line number), consecutive rows
+        self.joined = ((S[1:, 5] == S[:-1, 5]) & (S[1:, 6] - S[:-1, 6] == 1.0))[:, None] if S.shape[1] > 6 else None
+        self.any_joined = self.joined is not None and bool(self.joined.any())
+
+    def meets(self, boxes: np.ndarray) -> np.ndarray:
+        """N×K: whether segment n meets box k (K×4: x0, y0, x1, y1), grown by the half width.
+
+        Separating axes: the segment's bounding box must overlap the box, and the box's corners must
+        not all lie strictly on one side of the segment's line (the extremes of the cross product
+        over a box are its value at the centre ± the half sizes weighted by |dx|, |dy|). Touching
+        counts.
+        """
+        hw = self.hw
+        bx0, by0, bx1, by1 = boxes.T
+        overlap = ((self.xlo <= bx1 + hw) & (self.xhi >= bx0 - hw)
+                   & (self.ylo <= by1 + hw) & (self.yhi >= by0 - hw))
+        cx, cy = (bx0 + bx1) / 2, (by0 + by1) / 2
+        hx, hy = (bx1 - bx0) / 2 + hw, (by1 - by0) / 2 + hw
+        side = self.dx * (cy - self.py) - self.dy * (cx - self.px)
+        return overlap & (np.abs(side) <= self.adx * hy + self.ady * hx)
+
+    def lines_hit(self, H: np.ndarray) -> np.ndarray:
+        """Per column of *H* (N×K: whether segment n meets candidate k, as `meets` gives it), how
+        many lines the candidate meets: a run of consecutive segments of one polyline (an arc's
+        chords, a leader meeting two chords at their common vertex) is one line."""
+        n = H.sum(axis=0)
+        if self.any_joined:
+            n = n - (H[1:] & H[:-1] & self.joined).sum(axis=0)
+        return n
+
+
+def _hits(S: np.ndarray, boxes: np.ndarray) -> np.ndarray:
+    """K×N: whether segment n of *S* (x0, y0, x1, y1, half width) meets box k (`_Segments.meets`)."""
+    return _Segments(S).meets(boxes).T
 
 
 def _leader_hits(S: np.ndarray, P: np.ndarray, Q: np.ndarray, pad: float = 0.5) -> np.ndarray:
@@ -159,13 +194,8 @@ def _leader_hits(S: np.ndarray, P: np.ndarray, Q: np.ndarray, pad: float = 0.5) 
 
 def _lines_hit(H: np.ndarray, S: np.ndarray) -> np.ndarray:
     """Per row of *H* (K×N: whether candidate k meets segment n of *S*, rows as `_segment_array`
-    gives them), how many lines it meets: a run of consecutive segments of one polyline (an arc's
-    chords, a leader meeting two chords at their common vertex) is one line."""
-    n = H.sum(axis=1)
-    if len(S) > 1:
-        same = (S[1:, 5] == S[:-1, 5]) & (S[1:, 6] - S[:-1, 6] == 1.0)
-        n = n - (H[:, 1:] & H[:, :-1] & same).sum(axis=1)
-    return n
+    gives them), how many lines it meets (`_Segments.lines_hit`)."""
+    return _Segments(S).lines_hit(H.T)
 
 
 def seg_distance(a, b, c, d) -> float:
@@ -270,10 +300,12 @@ class Canvas:
         once, however many of its chords the box meets).
         """
         pen = np.zeros(len(boxes))
-        lo, hi = boxes[:, :2].min(axis=0) - 8.0, boxes[:, 2:].max(axis=0) + 8.0
         if self.boxes:
+            bx0, by0, bx1, by1 = boxes.T
+            lo0, lo1, hi0, hi1 = bx0.min() - 8.0, by0.min() - 8.0, bx1.max() + 8.0, by1.max() + 8.0
             B = self._box_array()
-            near = (B[:, 2] > lo[0]) & (B[:, 0] < hi[0]) & (B[:, 3] > lo[1]) & (B[:, 1] < hi[1])
+            # only the marks near the candidates: which ones decides the terms summed, so keep it
+            near = (B[:, 2] > lo0) & (B[:, 0] < hi0) & (B[:, 3] > lo1) & (B[:, 1] < hi1)
             B = B[near]
             if len(B):
                 ox = np.minimum(boxes[:, None, 2], B[None, :, 2]) - np.maximum(boxes[:, None, 0], B[None, :, 0]) + pad
@@ -281,23 +313,24 @@ class Canvas:
                 hit = (ox > 0) & (oy > 0)
                 pen += np.where(hit, 10.0 + ox * oy, 0.0).sum(axis=1)
         if self.segments:
-            S = self._segment_array()
-            smin = np.minimum(S[:, :2], S[:, 2:4]) - S[:, 4:5]
-            smax = np.maximum(S[:, :2], S[:, 2:4]) + S[:, 4:5]
-            near = np.all(smax > lo, axis=1) & np.all(smin < hi, axis=1)
-            S = S[near]
-            if len(S):
-                pen += 25.0 * _lines_hit(_hits(S, boxes), S)
+            # Every segment, no proximity filter: one too far from the boxes to meet any of them
+            # adds nothing to a count, and a run of a line's chords that meet a box is consecutive
+            # rows either way. At a few dozen segments the filter costs more than it saves.
+            segs = self._segments()
+            pen += 25.0 * segs.lines_hit(segs.meets(boxes))
         return pen
 
     def _segment_array(self) -> np.ndarray:
-        """`segments` as an N×7 array (x0, y0, x1, y1, half width, line, row), rebuilt only when the
-        list changed (appended or replaced)."""
+        """`segments` as an N×7 array (x0, y0, x1, y1, half width, line, row)."""
+        return self._segments().S
+
+    def _segments(self) -> _Segments:
+        """`segments` as `_Segments`, rebuilt only when the list changed (appended or replaced)."""
         key = (id(self.segments), len(self.segments))
         if getattr(self, "_seg_cache", (None, None))[1] != key:
             arr = np.array([(p[0], p[1], q[0], q[1], hw, ln, i) for i, (p, q, hw, ln) in enumerate(self.segments)],
                            float).reshape(-1, 7)
-            self._seg_cache = (arr, key)
+            self._seg_cache = (_Segments(arr), key)
         return self._seg_cache[0]
 
     def _box_array(self) -> np.ndarray:
