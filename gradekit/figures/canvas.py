@@ -83,6 +83,40 @@ _DIRECTIONS[np.abs(_DIRECTIONS) < 1e-12] = 0.0  # the 16 directions a label is t
 _DIRECTIONS.flags.writeable = False
 
 
+@lru_cache(maxsize=4096)
+def _stand_off(w: float, h: float) -> np.ndarray:
+    """Per direction of `_DIRECTIONS`: how far beyond a circle the centre of a *w*×*h* box stands
+    when the box touches the circle in that direction (read-only)."""
+    D = _DIRECTIONS
+    with np.errstate(divide="ignore"):
+        k = np.minimum(np.where(D[:, 0] != 0, w / 2 / np.abs(D[:, 0]), np.inf),
+                       np.where(D[:, 1] != 0, h / 2 / np.abs(D[:, 1]), np.inf))
+    k.flags.writeable = False
+    return k
+
+
+@lru_cache(maxsize=64)
+def _slots(na: int, nd: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Anchor and direction rank of each of *na* × *nd* candidates, and the order `Canvas.put`
+    breaks ties in within a stand-off (the earlier anchor, then the direction nearer *prefer*)."""
+    anchor = np.repeat(np.arange(na), nd)
+    rank = np.tile(np.arange(nd), na)
+    order = 1.5 * anchor + 0.2 * rank
+    for a in (anchor, rank, order):
+        a.flags.writeable = False
+    return anchor, rank, order
+
+
+@lru_cache(maxsize=16)
+def _groups(steps: tuple) -> tuple[np.ndarray, ...]:
+    """*steps* (stand-offs) in the groups `Canvas.put` scores at a time: without, with leaders."""
+    steps = np.asarray(steps, float)
+    groups = tuple(g for g in (steps[steps <= LEADER_GAP], steps[steps > LEADER_GAP]) if len(g))
+    for g in groups:
+        g.flags.writeable = False
+    return groups
+
+
 def _cost(placed: list) -> float:
     """What labels cost: their penalties and stand-offs, as `Canvas.put` scores them."""
     return sum(pen + 0.25 * gap for _t, _a, _b, pen, gap in placed)
@@ -426,27 +460,20 @@ class Canvas:
         """
         w, h = text_size(s, size)
         A = np.asarray(anchors, float).reshape(-1, 2)
-        D = _DIRECTIONS
+        D, k = _DIRECTIONS, _stand_off(w, h)
         if prefer is not None:
             pv = np.asarray(prefer, float)
             pn = float(np.hypot(*pv))
             if pn > 0:
-                D = D[np.argsort(-(D @ (pv / pn)), kind="stable")]
-        with np.errstate(divide="ignore"):
-            k = np.minimum(np.where(D[:, 0] != 0, w / 2 / np.abs(D[:, 0]), np.inf),
-                           np.where(D[:, 1] != 0, h / 2 / np.abs(D[:, 1]), np.inf))
-        na, nd = len(A), len(D)
-        anchor = np.repeat(np.arange(na), nd)
-        rank = np.tile(np.arange(nd), na)
-        order = 1.5 * anchor + 0.2 * rank  # ties within a stand-off: the earlier anchor, then *prefer*
+                nearest = np.argsort(-(D @ (pv / pn)), kind="stable")
+                D, k = D[nearest], k[nearest]
+        na = len(A)
+        anchor, rank, order = _slots(na, len(D))  # order: ties within a stand-off, the earlier anchor, then *prefer*
         best = None  # (score, centre, box, pen, gap, leader or None)
         # Stand-offs are scored a group at a time (one call for the near ones, one for those with
         # leaders): most labels find a free spot within 6 pt, and one call over a few hundred
-        # candidates costs about what one over sixteen does. Then nearest first, as if one by one.
-        steps = np.asarray(steps, float)
-        for group in (steps[steps <= LEADER_GAP], steps[steps > LEADER_GAP]):
-            if not len(group):
-                continue
+        # candidates costs less than two over fewer. Then nearest first, as if one by one.
+        for group in _groups(steps if isinstance(steps, tuple) else tuple(np.asarray(steps, float).tolist())):
             r = clear + group  # (G,)
             C = (A[None, :, None, :] + D[None, None, :, :] * (r[:, None] + k[None, :])[:, None, :, None])
             C = C.reshape(len(group), -1, 2)
@@ -475,18 +502,22 @@ class Canvas:
                     seg = np.column_stack([check, end, np.full(len(start), 0.5)])
                     pen += 25.0 * _hits(seg, self._box_array()).sum(axis=0).reshape(pen.shape)
                 start, end = start.reshape(C.shape), end.reshape(C.shape)
+            # the nearest stand-off with a free candidate wins with its free one of least order ...
+            free = pen == 0.0
+            with_free = np.flatnonzero(free.any(axis=1))
+            if len(with_free):
+                g = int(with_free[0])
+                i = int(np.argmin(np.where(free[g], order, np.inf)))
+                line = (start[g, i], end[g, i]) if leader else None
+                best = (None, C[g, i], boxes[g, i], float(pen[g, i]), float(group[g]), line)
+                break
+            # ... else the least score so far (the nearer stand-off on ties) is kept
             for g, step in enumerate(group):
-                free = np.flatnonzero(pen[g] == 0.0)
                 score = pen[g] + 0.25 * step + 0.02 * (step + order)
-                i = int(free[np.argmin(order[free])]) if len(free) else int(np.argmin(score))
-                if len(free) or best is None or score[i] < best[0]:
+                i = int(np.argmin(score))
+                if best is None or score[i] < best[0]:
                     line = (start[g, i], end[g, i]) if leader else None
                     best = (score[i], C[g, i], boxes[g, i], float(pen[g, i]), float(step), line)
-                if len(free):
-                    break
-            else:
-                continue
-            break
         assert best is not None
         _, centre, box, pen_i, gap_i, line = best
         if line is not None:
