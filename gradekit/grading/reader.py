@@ -354,6 +354,10 @@ def read_file(
         return fail(f"expected a small CSV (under 2 MB), got {exc}")
     except OSError as exc:
         return fail(f"expected a readable file, got {exc.strerror or exc}")
+    if named is not None:
+        usual = _usual(data, display, named, ids, keys, mtime)
+        if usual is not None:
+            return usual
     if not data.strip():
         return fail(f"expected a CSV with columns {EXPECTED}, got an empty file")
     text, _ = decode_bytes(data)
@@ -369,6 +373,47 @@ def read_file(
         return fail(f"expected a CSV with columns {EXPECTED}, got only blank lines")
     reader = _Layout(display, found, ids, keys, delimiter, mtime)
     return reader.read(rows)
+
+
+_USUAL_HEADER = (EXPECTED + "\n").encode("ascii")
+_UNUSUAL = re.compile(rb'[^!#-~\n]')  # a byte other than printable ASCII without space and quote, or LF
+
+
+def _usual(
+    data: bytes, display: str, named: str, ids: IdIndex, keys: KeyIndex, mtime: float
+) -> list[Submission] | None:
+    """What `read_file` reads from the usual file, or None for any other (then read by the full reader).
+
+    The usual file: the header `EXPECTED` as its first line, then rows of four cells, each row's id
+    the file name's student's id and its key one of the keys, both as written, each key once (blank
+    rows allowed); printable ASCII without spaces or quotes, lines ended by LF. For it, every step of
+    the full reader takes its simplest branch (no BOM, UTF-8, not binary, the comma, a row per line
+    and no cell to strip, the long layout with every row the student's), which this follows: each
+    value cell read by the same `_Layout._cell` (a plain number directly, as `_Layout._long` does).
+    """
+    if not data.startswith(_USUAL_HEADER) or _UNUSUAL.search(data) or len(data) >= csv.field_size_limit():
+        return None
+    known = keys.keys
+    answers: dict[str, Answer] = {}
+    layout = None
+    for line, row in enumerate(data.decode("ascii").split("\n")[1:], 2):
+        cells = row.split(",")
+        if len(cells) != 4 or cells[0] != named or cells[1] not in known or cells[1] in answers:
+            if row.strip(","):  # not a blank row
+                return None
+            continue
+        _, key, raw, raw_unit = cells
+        if len(raw) <= MAX_CELL and len(raw_unit) <= units.MAX_LENGTH and _PLAIN_NUMBER.fullmatch(raw):
+            number = float(raw)
+            if math.isfinite(number):
+                answers[key] = Answer(key, raw, raw_unit, number, raw_unit, line, "unit")
+                continue
+        if layout is None:
+            layout = _Layout(display, {named}, ids, keys, ",", mtime)
+        answers[key] = layout._cell(key, raw, raw_unit, line)
+    if not answers:
+        return None
+    return [Submission(display, named, tuple(answers.values()), (), (), True, mtime, False, named, ())]
 
 
 class _NotRegular(OSError):
