@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from gradekit.figures.canvas import Canvas, _hits, _lines_hit, _seg_hits_box
+from gradekit.figures.canvas import Canvas, _hits, _leader_hits, _lines_hit, _seg_hits_box, seg_distance
 
 GRID = 0.25  # coordinates on a binary grid: every sum and product below is exact, touching is exact
 
@@ -173,3 +173,47 @@ def test_crowded_marks_are_summed_as_before_to_the_bit(seed):
     assert got.tobytes() == _previous_penalties(cv, boxes).tobytes()
     marks, _lines = _reference(cv, boxes)
     assert got == pytest.approx(marks, rel=1e-12, abs=0.0)
+
+
+def _previous_leader_hits(S, P, Q, pad=0.5):
+    """`_leader_hits` as it was written before (points with a trailing axis of two)."""
+    a, b, hw = S[None, :, 0:2], S[None, :, 2:4], S[None, :, 4]
+    p, q = P[:, None, :], Q[:, None, :]
+
+    def cross(o, u, v):
+        return (u[..., 0] - o[..., 0]) * (v[..., 1] - o[..., 1]) - (u[..., 1] - o[..., 1]) * (v[..., 0] - o[..., 0])
+
+    def point_seg(x, u, v):
+        d = v - u
+        t = np.clip(((x - u) * d).sum(-1) / np.maximum((d * d).sum(-1), 1e-12), 0.0, 1.0)
+        return np.hypot(*np.moveaxis(x - u - d * t[..., None], -1, 0))
+
+    crossing = (cross(a, b, p) * cross(a, b, q) < 0) & (cross(p, q, a) * cross(p, q, b) < 0)
+    dist = np.minimum(np.minimum(point_seg(p, a, b), point_seg(q, a, b)),
+                      np.minimum(point_seg(a, p, q), point_seg(b, p, q)))
+    return crossing | (dist < hw + pad)
+
+
+@pytest.mark.parametrize("seed", range(30))
+def test_leader_hits_as_before_and_as_the_distance_between_segments(seed):
+    """Leaders against segments: zero-length ones on both sides (an anchor checked against what it
+    lies on), shared ends and collinear touching on the grid; then off the grid, against the
+    distance of each pair (`seg_distance`) compared with the half width and pad."""
+    rng = np.random.default_rng(3000 + seed)
+    n, k = int(rng.integers(1, 25)), int(rng.integers(1, 60))
+    S = np.column_stack([_grid(rng, 0, 20, (n, 4)), rng.choice([0.75, 1.0, 1.25], n)])
+    zero = rng.random(n) < 0.25
+    S[zero, 2:4] = S[zero, 0:2]
+    P, Q = _grid(rng, 0, 20, (k, 2)), _grid(rng, 0, 20, (k, 2))
+    dot = rng.random(k) < 0.2
+    Q[dot] = P[dot]  # zero-length leaders
+    shared = rng.random(k) < 0.3
+    P[shared] = S[rng.integers(n, size=int(shared.sum())), 2:4]  # a leader starting on a segment's end
+    pads = [0.5, 1.0 - S[:, 4]]
+    for pad in pads:
+        assert np.array_equal(_leader_hits(S, P, Q, pad), _previous_leader_hits(S, P, Q, pad))
+        assert np.array_equal(_leader_hits(S, P, P, pad), _previous_leader_hits(S, P, P, pad))
+    S[:, :4] += rng.uniform(-0.1, 0.1, (n, 4))
+    P, Q = P + rng.uniform(-0.1, 0.1, (k, 2)), Q + rng.uniform(-0.1, 0.1, (k, 2))
+    expected = [[seg_distance(P[i], Q[i], S[j, :2], S[j, 2:4]) < S[j, 4] + 0.5 for j in range(n)] for i in range(k)]
+    assert _leader_hits(S, P, Q).tolist() == expected

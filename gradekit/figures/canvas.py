@@ -208,17 +208,22 @@ def _hits(S: np.ndarray, boxes: np.ndarray) -> np.ndarray:
 
 def _leader_hits(S: np.ndarray, P: np.ndarray, Q: np.ndarray, pad: float = 0.5) -> np.ndarray:
     """K×N: whether leader P[k]–Q[k] comes within segment n's half width (+ *pad*) of segment n of
-    *S* (x0, y0, x1, y1, half width): crosses or touches it."""
-    a, b, hw = S[None, :, 0:2], S[None, :, 2:4], S[None, :, 4]
-    p, q = P[:, None, :], Q[:, None, :]
+    *S* (x0, y0, x1, y1, half width): crosses or touches it.
+
+    Points are (x, y) pairs of arrays, K×1 for the leaders and N for the segments, so every table
+    is K×N (no trailing axis of two to sum over or move: those cost more than the arithmetic).
+    """
+    a, b, hw = (S[:, 0], S[:, 1]), (S[:, 2], S[:, 3]), S[:, 4]
+    p, q = (P[:, 0, None], P[:, 1, None]), (Q[:, 0, None], Q[:, 1, None])
 
     def cross(o, u, v):
-        return (u[..., 0] - o[..., 0]) * (v[..., 1] - o[..., 1]) - (u[..., 1] - o[..., 1]) * (v[..., 0] - o[..., 0])
+        return (u[0] - o[0]) * (v[1] - o[1]) - (u[1] - o[1]) * (v[0] - o[0])
 
     def point_seg(x, u, v):
-        d = v - u
-        t = np.clip(((x - u) * d).sum(-1) / np.maximum((d * d).sum(-1), 1e-12), 0.0, 1.0)
-        return np.hypot(*np.moveaxis(x - u - d * t[..., None], -1, 0))
+        dx, dy = v[0] - u[0], v[1] - u[1]
+        ex, ey = x[0] - u[0], x[1] - u[1]
+        t = np.clip((ex * dx + ey * dy) / np.maximum(dx * dx + dy * dy, 1e-12), 0.0, 1.0)
+        return np.hypot(ex - dx * t, ey - dy * t)
 
     crossing = (cross(a, b, p) * cross(a, b, q) < 0) & (cross(p, q, a) * cross(p, q, b) < 0)
     dist = np.minimum(np.minimum(point_seg(p, a, b), point_seg(q, a, b)),
