@@ -217,3 +217,17 @@ def test_leader_hits_as_before_and_as_the_distance_between_segments(seed):
     P, Q = P + rng.uniform(-0.1, 0.1, (k, 2)), Q + rng.uniform(-0.1, 0.1, (k, 2))
     expected = [[seg_distance(P[i], Q[i], S[j, :2], S[j, 2:4]) < S[j, 4] + 0.5 for j in range(n)] for i in range(k)]
     assert _leader_hits(S, P, Q).tolist() == expected
+
+
+@pytest.mark.parametrize("seed", range(20))
+def test_free_only_tells_the_free_boxes_and_leaves_out_lines_only_on_marks(seed):
+    rng = np.random.default_rng(4000 + seed)
+    cv = _random_canvas(rng, int(rng.integers(1, 10)), int(rng.integers(1, 15)), arcs=1)
+    boxes = _candidates(rng, cv, 200)
+    full, quick = cv.penalties(boxes), cv.penalties(boxes, free_only=True)
+    marks, lines = _reference(cv, boxes)
+    on_mark = np.array(marks) > 0
+    assert np.array_equal(full == 0.0, quick == 0.0)
+    assert full[~on_mark].tobytes() == quick[~on_mark].tobytes()
+    assert quick[on_mark] == pytest.approx(np.array(marks)[on_mark], rel=1e-12, abs=0.0)
+    assert full[on_mark] - quick[on_mark] == pytest.approx(25.0 * np.array(lines)[on_mark], abs=1e-9)

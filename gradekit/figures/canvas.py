@@ -332,18 +332,21 @@ class Canvas:
             self.boxes.append((x0, xy[1] - h / 2, x0 + w, xy[1] + h / 2))
 
     # -- labels -----------------------------------------------------------------------------
-    def penalties(self, boxes: np.ndarray, pad: float = 1.5) -> np.ndarray:
+    def penalties(self, boxes: np.ndarray, pad: float = 1.5, free_only: bool = False) -> np.ndarray:
         """Penalty of each candidate label box (K×4: x0, y0, x1, y1): 0 when it touches nothing.
 
         Overlap with a placed label or mark costs 10 + its area; crossing a line costs 25 (an arc
-        once, however many of its chords the box meets).
+        once, however many of its chords the box meets). With *free_only*, lines are counted only
+        for the boxes on no mark: enough to tell which boxes are free (penalty 0), and cheaper; the
+        penalty of a box on a mark then leaves out its lines.
         """
         pen = np.zeros(len(boxes))
         if self.boxes:
             bx0, by0, bx1, by1 = boxes.T
             lo0, lo1, hi0, hi1 = bx0.min() - 8.0, by0.min() - 8.0, bx1.max() + 8.0, by1.max() + 8.0
             B = self._box_array()
-            # only the marks near the candidates: which ones decides the terms summed, so keep it
+            # only the marks near the candidates: which marks are summed fixes the last bit of a
+            # sum of three or more (numpy sums over 8 terms pairwise), so this filter stays
             near = (B[:, 2] > lo0) & (B[:, 0] < hi0) & (B[:, 3] > lo1) & (B[:, 1] < hi1)
             B = B[near]
             if len(B):
@@ -356,7 +359,11 @@ class Canvas:
             # adds nothing to a count, and a run of a line's chords that meet a box is consecutive
             # rows either way. At a few dozen segments the filter costs more than it saves.
             segs = self._segments()
-            pen += 25.0 * segs.lines_hit(segs.meets(boxes))
+            if free_only:
+                clear = np.flatnonzero(pen == 0.0)
+                pen[clear] += 25.0 * segs.lines_hit(segs.meets(boxes[clear]))
+            else:
+                pen += 25.0 * segs.lines_hit(segs.meets(boxes))
         return pen
 
     def _segment_array(self) -> np.ndarray:
@@ -484,8 +491,9 @@ class Canvas:
             C = C.reshape(len(group), -1, 2)
             half = np.array([w / 2, h / 2])
             boxes = np.concatenate([C - half, C + half], axis=2)
-            pen = self.penalties(boxes.reshape(-1, 4)).reshape(len(group), -1)
             leader = group[0] > LEADER_GAP
+            # lines first counted only where they decide whether a candidate is free (see below)
+            pen = self.penalties(boxes.reshape(-1, 4), free_only=not leader).reshape(len(group), -1)
             if leader:  # a leader from the anchor's clear circle to the box must cross nothing either
                 start = np.broadcast_to(A[anchor] + D[rank] * clear, C.shape).reshape(-1, 2)
                 end = (A[anchor][None] + D[rank][None] * r[:, None, None]).reshape(-1, 2)
@@ -517,6 +525,8 @@ class Canvas:
                 best = (None, C[g, i], boxes[g, i], float(pen[g, i]), float(group[g]), line)
                 break
             # ... else the least score so far (the nearer stand-off on ties) is kept
+            if not leader:  # every candidate's full penalty is needed now
+                pen = self.penalties(boxes.reshape(-1, 4)).reshape(len(group), -1)
             for g, step in enumerate(group):
                 score = pen[g] + 0.25 * step + 0.02 * (step + order)
                 i = int(np.argmin(score))
