@@ -7,6 +7,7 @@ computed. `Result` is one variant as `gradekit solve` reports it; `ResultBatch` 
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 
@@ -194,6 +195,7 @@ def flat_results(problem: Problem, sol: Solutions, values: dict | None = None) -
         return np.broadcast_to(np.asarray(x, float), (n,))
 
     def vector(name: str, x, y, unit: str) -> None:
+        @functools.cache  # the components, worked out on the first read of any of the five names
         def xy():
             return arr(x() if callable(x) else x), arr(y() if callable(y) else y)
 
@@ -267,6 +269,7 @@ def flat_results(problem: Problem, sol: Solutions, values: dict | None = None) -
     for gname, x in groups.items():
         suffix = "" if gname is None else "@" + group_label(problem, gname)
 
+        @functools.cache  # once for the force's components and the moment
         def shaking(x=x):
             return frame_reaction(link, x, np.stack([arr(origin()[0]), arr(origin()[1])], axis=-1))
 
