@@ -67,7 +67,7 @@ def com_marker(cv: Canvas, c: np.ndarray, gid: str, r: float = 3.8) -> None:
     cv.circle(c, r, "white", BLACK, 0.8, z=7.0, gid=gid)
     for a0 in (0.0, math.pi):
         t = np.linspace(a0, a0 + math.pi / 2, 7)
-        cv.polygon(np.vstack([c, c + r * np.c_[np.cos(t), np.sin(t)]]), BLACK, BLACK, 0.3, z=7.1,
+        cv.polygon(np.vstack([c, c + r * np.column_stack([np.cos(t), np.sin(t)])]), BLACK, BLACK, 0.3, z=7.1,
                    obstacle=False)
 
 
