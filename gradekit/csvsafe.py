@@ -39,6 +39,11 @@ def safe_cell(value: object) -> str | int | float:
     Returns:
         The value to hand to `csv.writer`.
     """
+    kind = type(value)
+    if kind is str:  # most cells, as below without the abstract class check
+        return "'" + value if value.startswith(_FORMULA_START) and not _PLAIN_NUMBER.fullmatch(value) else value
+    if kind is int or kind is float:
+        return value
     if value is None:
         return ""
     if isinstance(value, Number) and not isinstance(value, complex):
@@ -81,7 +86,7 @@ def atomic_write(path: Path, data: str | bytes, *, encoding: str = "utf-8") -> N
         raise
 
 
-def write_staged(path: Path, data: str | bytes, *, encoding: str = "utf-8") -> None:
+def write_staged(path: str | Path, data: str | bytes, *, encoding: str = "utf-8") -> None:
     """Write *data* to *path* in place, for a file inside a `StagedFolder`'s staging folder.
 
     Nothing there is visible until `StagedFolder.commit` moves it in, so the temporary file and

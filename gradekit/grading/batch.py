@@ -482,6 +482,7 @@ def _grade_batch(
         root = stage.root
         feedback = root / "feedback"
         feedback.mkdir()
+        in_feedback = os.path.join(feedback, "")  # as text: a file name is joined to it (pathlib costs more)
 
         def read(indices: list[int]) -> dict[int, list[Submission]]:
             return {i: read_file(*files[i], ids, key_index, found=found[i]) for i in indices}
@@ -492,8 +493,8 @@ def _grade_batch(
                 g = carry.apply(g)
             md, page = feedback_pages(g, titles, assignment_title, reveal, hint)
             stem = names[student.student_id]
-            write_staged(feedback / f"{stem}.md", md)
-            write_staged(feedback / f"{stem}.html", page)
+            write_staged(f"{in_feedback}{stem}.md", md)
+            write_staged(f"{in_feedback}{stem}.html", page)
             return g
 
         def take(which: range) -> tuple[dict[int, list[Submission]], dict[str, Submission]]:

@@ -397,6 +397,7 @@ def find_copies(
     g_key = np.fromiter(map(aid.get, map(_KEY, map(_ENTRY, flat)), repeat(-1)), np.int64, n)
     g_x = np.array(list(map(_VALUE, flat)), dtype=float)  # None (no value) as NaN
     g_wrong = ~np.fromiter(map(_CORRECT, flat), bool, n)
+    own = np.bincount(g_row[~g_wrong], minlength=n_sub).tolist()  # each one's right answers
     given = np.isfinite(g_x) & (g_key >= 0)
     g_row, g_key, g_x, g_wrong = g_row[given], g_key[given], g_x[given], g_wrong[given]
     answered: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
@@ -478,7 +479,6 @@ def find_copies(
             share_hits.append((code, np.full(len(si), a, np.int32)))
 
     flags: list[IntegrityFlag] = []
-    own = [sum(map(_CORRECT, r)) for r in results]
     looks = []
     for hits, probs in ((band_hits, p_band), (exact_hits, p_exact)):
         count, other, answers = _best_pairs(hits, n_sub, n_all, n_trials)
