@@ -565,21 +565,30 @@ def _grade_batch(
         record.update((i, _record(files[i][1], subs, chosen)) for i, subs in per_file.items())
         intake_files = tuple([record[i] for i in range(len(files))] + ignored)
         conflicts = _conflicts(grades, entries, students)
-        flags = conflicts + find_copies(grades, keys, prepared=prepared)
+        image = "histogram.png" if histogram else None
+        listed = [(f.path, f.status, f.detail) for f in intake_files]
+
+        def checked() -> tuple[list[IntegrityFlag], str]:
+            """The integrity flags (copy detection's among them) and the report, which lists them."""
+            flags = conflicts + find_copies(grades, keys, prepared=prepared)
+            report = report_markdown(
+                assignment_title=assignment_title, grades=grades, files=listed, flags=flags, histogram=image,
+                carried=carry is not None, carry_limits=carry.limits() if carry is not None else (),
+            )
+            return flags, _first_section(report, _attention(grades, conflicts, intake_files))
+
         write_grades(root / "grades.csv", grades, problems, titles, carried=carry is not None)
         write_canvas(root / "canvas.csv", grades, assignment_title)
         write_moodle(root / "moodle.csv", grades, assignment_title)
-        image = None
-        if histogram:
-            percents = [g.percent for g in grades if g.submission is not None]
-            write_histogram(root / "histogram.png", percents, assignment_title)
-            image = "histogram.png"
-        listed = [(f.path, f.status, f.detail) for f in intake_files]
-        report = report_markdown(
-            assignment_title=assignment_title, grades=grades, files=listed, flags=flags, histogram=image,
-            carried=carry is not None, carry_limits=carry.limits() if carry is not None else (),
-        )
-        write_text(root / "report.md", _first_section(report, _attention(grades, conflicts, intake_files)))
+        percents = [g.percent for g in grades if g.submission is not None]
+        # Copy detection and the report while the histogram is drawn, in a process forked for them (it reads the
+        # grades the fork shares and sends back the flags and the report's text), when a helper had a core for
+        # this class. The parent touches little of what they share meanwhile, so neither copies much of the other.
+        with Forked(checked) if share and histogram else nullcontext() as checking:
+            if histogram:
+                write_histogram(root / "histogram.png", percents, assignment_title)
+            flags, report = checking.result() if checking is not None else checked()
+        write_text(root / "report.md", report)
         written = stage.commit(
             "gradekit grading output; files listed here are rewritten by the next run, others are left alone",
             extra_previous=() if stage.previous() else _unlisted_outputs(out),
