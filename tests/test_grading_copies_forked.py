@@ -49,18 +49,18 @@ def test_copy_detection_forked_finds_what_one_process_finds(klass, tmp_path, mon
     keys, subs = klass
     monkeypatch.setattr(parallel, "spare_core", lambda since=None: False)
     alone, alone_files = _run(keys, subs, tmp_path / "alone")
-    forks = []
-    real_fork = parallel.Forked
+    forks: list[str] = []
 
-    def counted(work):
-        forks.append(work)
-        return real_fork(work)
+    class Recorded(parallel.Forked):
+        def __init__(self, work):
+            forks.append(work.__name__)
+            super().__init__(work)
 
-    monkeypatch.setattr(batch, "Forked", counted)
+    monkeypatch.setattr(batch, "Forked", Recorded)
     monkeypatch.setattr(parallel, "FROM", 1)
     monkeypatch.setattr(parallel, "spare_core", lambda since=None: True)
     both, both_files = _run(keys, subs, tmp_path / "both")
-    assert len(forks) == 2  # the helper, then copy detection and the report
+    assert forks == ["helper", "checked"]  # the helper, then copy detection and the report
     copied = {(f.student_id, f.other_id) for f in alone.flags if f.reason == KEY_MATCH}
     assert {(IDS[i], IDS[100 + i]) for i in range(10)} <= copied
     assert both.flags == alone.flags
