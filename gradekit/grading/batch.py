@@ -8,7 +8,7 @@ import os
 import time
 from collections.abc import Iterable, Iterator, Mapping, Sequence
 from contextlib import closing, contextmanager, nullcontext
-from dataclasses import astuple, dataclass
+from dataclasses import dataclass
 from itertools import groupby
 from operator import attrgetter
 from pathlib import Path
@@ -50,6 +50,9 @@ class FileRecord:
     status: str
     detail: str = ""
     student_ids: tuple[str, ...] = ()
+
+
+_RECORD = attrgetter(*FileRecord.__dataclass_fields__)  # a record's fields, in order (astuple also copies them)
 
 
 @dataclass(frozen=True)
@@ -512,7 +515,7 @@ def _grade_batch(
             for which in claims.back():
                 per_file, chosen = take(which)
                 stream.send([pack(graded(by_id[sid], chosen)) for sid in chosen])
-                records += [(i, *astuple(_record(files[i][1], subs, chosen))) for i, subs in per_file.items()]
+                records += [(i, *_RECORD(_record(files[i][1], subs, chosen))) for i, subs in per_file.items()]
             return records
 
         helped: dict[str, StudentGrade] = {}
