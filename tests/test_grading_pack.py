@@ -60,3 +60,34 @@ def test_carried_credit_comes_back_with_its_points():
 def test_a_grade_unpacked_for_other_entries_is_refused():
     with pytest.raises(ValueError, match="expected 3 results for 1001, got 4"):
         unpack(pack(_grade()), STUDENT, ENTRIES[:3])
+
+
+@pytest.mark.parametrize(
+    "values",
+    [
+        [],
+        [1.5, -0.0, math.inf],
+        [None, 2.0, None, -math.inf, None],
+        [None],
+        [3.0, None],
+    ],
+)
+def test_optional_floats_come_back_exactly_with_their_nones(values):
+    from gradekit.grading.parallel import _floats, _unfloats
+
+    back = _unfloats(*_floats(values))
+    assert [v is None for v in back] == [v is None for v in values]
+    assert back == values
+    assert [math.copysign(1.0, v) for v in back if v is not None] == [
+        math.copysign(1.0, v) for v in values if v is not None
+    ]  # -0.0 keeps its sign
+
+
+def test_optional_floats_with_flags_of_another_length_are_refused():
+    from array import array
+
+    from gradekit.grading.parallel import _unfloats
+
+    with pytest.raises(ValueError, match="expected 2 flags of None, got 3"):
+        _unfloats(array("d", [1.0, 2.0]).tobytes(), bytes([0, 1, 0]))
+    assert _unfloats(array("d", [1.0, 2.0]).tobytes(), bytes([1, 0])) == [None, 2.0]

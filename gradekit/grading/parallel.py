@@ -20,7 +20,7 @@ import warnings
 from array import array
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import replace
-from itertools import chain
+from itertools import chain, compress
 from operator import attrgetter
 
 from gradekit.grading.compare import AnswerResult, ProblemScore, StudentGrade
@@ -327,9 +327,12 @@ def _floats(values: list[float | None]) -> tuple[bytes, bytes]:
 def _unfloats(data: bytes, none: bytes) -> list[float | None]:
     values = array("d")
     values.frombytes(data)
-    if any(none):
-        return [None if n else v for v, n in zip(values.tolist(), none, strict=True)]
-    return values.tolist()
+    values = values.tolist()
+    if none and len(none) != len(values):
+        raise ValueError(f"expected {len(values)} flags of None, got {len(none)}")
+    for i in compress(range(len(values)), none):  # only the None's places visited
+        values[i] = None
+    return values
 
 
 _SEP = "\x00"  # joins a student's texts: no cell, unit or message holds a NUL (the reader refuses them)
