@@ -194,13 +194,13 @@ def test_a_helper_needs_a_core_idle_now_not_a_quiet_last_minute(monkeypatch):
     idle = parallel._idle_cores(0.05)
     if idle is not None:  # Linux: a fraction of the cores this process may use, measured
         assert 0.0 <= idle <= parallel.cores() + 1e-9
-    monkeypatch.setattr(parallel, "_idle_cores", lambda seconds=0.1: 1.9)
+    monkeypatch.setattr(parallel, "_idle_cores", lambda seconds=0.1, since=None: 1.9)
     monkeypatch.setattr(parallel.os, "getloadavg", lambda: (5.0, 5.0, 5.0))  # a busy last minute
     assert parallel.spare_core()
-    monkeypatch.setattr(parallel, "_idle_cores", lambda seconds=0.1: 1.2)
+    monkeypatch.setattr(parallel, "_idle_cores", lambda seconds=0.1, since=None: 1.2)
     monkeypatch.setattr(parallel.os, "getloadavg", lambda: (0.0, 0.0, 0.0))
     assert not parallel.spare_core()
-    monkeypatch.setattr(parallel, "_idle_cores", lambda seconds=0.1: None)
+    monkeypatch.setattr(parallel, "_idle_cores", lambda seconds=0.1, since=None: None)
     monkeypatch.setattr(parallel, "cores", lambda: 2)
     assert parallel.spare_core()
     monkeypatch.setattr(parallel.os, "getloadavg", lambda: (1.6, 1.0, 1.0))

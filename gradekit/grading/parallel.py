@@ -102,7 +102,7 @@ def spare_core(since: Look | None = None) -> bool:
     busy a helper only competes with it, and the extra work of handing grades back makes the run
     slower (``make -l`` likewise). Without the kernel's counters, the load average of the last
     minute (which lags: it still counts what this process did while loading) must leave half a core."""
-    idle = _idle_cores() if since is None else _idle_cores(since=since)
+    idle = _idle_cores(since=since)
     if idle is not None:
         return idle >= 1.5
     try:
