@@ -78,18 +78,18 @@ def capture(folder: Path) -> None:
         typeset.Compiler.pdf = compile_pdf
 
 
-def compile_variant(folder: Path, name: str) -> float:
-    """Compile the warm-up pair and the measured keys with *name*'s change; the measured keys' CPU s."""
+def compile_variant(folder: Path, name: str, keys: tuple[int, ...] = KEYS) -> float:
+    """Compile the warm-up pair and the *keys* with *name*'s change; the CPU s of the *keys*."""
     import typst
 
     change = VARIANTS[name]
     options = {"pdf_tags": False} if name == "pdf-tags-off" else {}
-    sources = [(folder / f"src{i}.typ").read_text(encoding="utf-8") for i in range(max(KEYS, default=1) + 1)]
+    sources = [(folder / f"src{i}.typ").read_text(encoding="utf-8") for i in range(max(keys, default=1) + 1)]
     compiler = typst.Compiler(root=str(folder / "root"))
     for i in (0, 1):  # as they are, so that every variant starts from the same warm compiler
         compiler.compile(input=sources[i].encode(), format="pdf", **options)
     t = time.process_time()
-    for i in KEYS:
+    for i in keys:
         compiler.compile(input=change(sources[i]).encode(), format="pdf", **options)
     return time.process_time() - t
 
@@ -115,10 +115,7 @@ def main() -> None:
     ap.add_argument("--warm-only", action="store_true", help=argparse.SUPPRESS)
     a = ap.parse_args()
     if a.compile:  # the child run under valgrind
-        global KEYS
-        if a.warm_only:
-            KEYS = ()
-        compile_variant(Path(a.compile[0]), a.compile[1])
+        compile_variant(Path(a.compile[0]), a.compile[1], () if a.warm_only else KEYS)
         return
     names = a.variants or list(VARIANTS)
     unknown = [n for n in names if n not in VARIANTS]
