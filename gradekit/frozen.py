@@ -23,6 +23,8 @@ from functools import partial
 from itertools import chain
 from operator import itemgetter
 
+import orjson
+
 from gradekit import __version__
 from gradekit.errors import GradekitError
 from gradekit.keys import KeyColumns, KeyEntry, Mistake, Tolerance
@@ -56,8 +58,13 @@ def dumps(keys: Iterable[KeyEntry]) -> str:
     return json.dumps(doc, ensure_ascii=False, separators=(",", ":"), allow_nan=False) + "\n"
 
 
-def loads(text: str, path: str) -> FrozenKeys:
-    """Every student's frozen key entries, ``{student: [KeyEntry, …]}``, from a ``keys.json`` text.
+def loads(text: str | bytes, path: str) -> FrozenKeys:
+    """Every student's frozen key entries, ``{student: [KeyEntry, …]}``, from a ``keys.json`` text
+    (or its UTF-8 bytes).
+
+    Parsed by orjson: the same values as the standard library's `json` (the file holds objects,
+    arrays, strings and finite floats only, as `dumps` writes it) in a quarter of the time, which
+    at 3,000 students is 0.15 s of `grade`'s serial start (RESULTS: Grading throughput).
 
     The text is parsed and what is the same for the class is read here; each student's entries are
     built on first access (`FrozenKeys`), so that a forked helper process builds those of the students
@@ -65,7 +72,7 @@ def loads(text: str, path: str) -> FrozenKeys:
     `GradekitError` (naming *path*) when they are first read.
     """
     try:
-        doc = json.loads(text)
+        doc = orjson.loads(text)
         if doc.get("format") != FORMAT:
             raise ValueError(f"format {doc.get('format')!r}, expected {FORMAT}")
         names = doc["mistakes"]
@@ -191,5 +198,6 @@ def _mistake(name: str, description: str, value: float) -> Mistake:
     return m
 
 
-def sha256(text: str) -> str:
-    return hashlib.sha256(text.encode("utf-8")).hexdigest()
+def sha256(text: str | bytes) -> str:
+    """The hex SHA-256 of a ``keys.json`` text (as UTF-8) or of its bytes."""
+    return hashlib.sha256(text.encode("utf-8") if isinstance(text, str) else text).hexdigest()

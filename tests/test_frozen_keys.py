@@ -223,3 +223,30 @@ def test_a_corrupt_frozen_key_file_with_its_hash_gives_one_line_naming_it(course
     assert r.stderr.strip().count("\n") == 0, r.stderr
     assert "keys.json" in r.stderr and "expected the frozen keys written by gradekit generate" in r.stderr
     assert not (course / "g-corrupt" / "grades.csv").exists()
+
+
+def test_a_frozen_key_file_copied_with_windows_line_ends_grades_the_same(course):
+    """keys.json read as bytes (hashed and parsed as such) still matches its manifest after a copy
+    that turned its line end into CRLF, as the text-mode read before it did."""
+    crlf = course / "crlf"
+    shutil.copytree(course / "gen", crlf)
+    data = (crlf / "keys.json").read_bytes()
+    assert data.endswith(b"\n") and b"\r" not in data
+    (crlf / "keys.json").write_bytes(data.replace(b"\n", b"\r\n"))
+    args = ("grade", "hw.yaml", "--roster", "roster.csv", "--submissions", "subs")
+    a = _cli(*args, "--manifest", "gen/manifest.json", "--out", "g-lf", cwd=course)
+    b = _cli(*args, "--manifest", "crlf/manifest.json", "--out", "g-crlf", cwd=course)
+    assert a.returncode == 0 and b.returncode == 0, (a.stderr, b.stderr)
+    assert _grades(course / "g-crlf") == _grades(course / "g-lf")
+
+
+@pytest.mark.parametrize("bad", [b'{"format":1,"x":NaN}', b'{"format":1,"answers":{"\xff":1}}', b"[1,2"])
+def test_frozen_keys_that_are_not_the_json_generate_writes_are_one_clean_error(bad):
+    """Not finite numbers, bytes that are not UTF-8, a cut-off file: the one-line error naming the
+    file, not a parser's traceback."""
+    from gradekit import frozen
+    from gradekit.errors import GradekitError
+
+    with pytest.raises(GradekitError, match="expected the frozen keys written by gradekit generate") as e:
+        frozen.loads(bad, "gen/keys.json")
+    assert e.value.path == "gen/keys.json"
