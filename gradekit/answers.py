@@ -7,7 +7,6 @@ computed. `Result` is one variant as `gradekit solve` reports it; `ResultBatch` 
 
 from __future__ import annotations
 
-import functools
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 
@@ -195,9 +194,8 @@ def flat_results(problem: Problem, sol: Solutions, values: dict | None = None) -
         return np.broadcast_to(np.asarray(x, float), (n,))
 
     def vector(name: str, x, y, unit: str) -> None:
-        @functools.cache  # the components, worked out on the first read of any of the five names
-        def xy():
-            return arr(x() if callable(x) else x), arr(y() if callable(y) else y)
+        # the components, worked out on the first read of any of the five names
+        xy = _once(lambda: (arr(x() if callable(x) else x), arr(y() if callable(y) else y)))
 
         out.put(name + ".x", lambda: (xy()[0], unit))
         out.put(name + ".y", lambda: (xy()[1], unit))
@@ -269,9 +267,8 @@ def flat_results(problem: Problem, sol: Solutions, values: dict | None = None) -
     for gname, x in groups.items():
         suffix = "" if gname is None else "@" + group_label(problem, gname)
 
-        @functools.cache  # once for the force's components and the moment
-        def shaking(x=x):
-            return frame_reaction(link, x, np.stack([arr(origin()[0]), arr(origin()[1])], axis=-1))
+        # once for the force's components and the moment
+        shaking = _once(lambda x=x: frame_reaction(link, x, np.stack([arr(origin()[0]), arr(origin()[1])], axis=-1)))
 
         vector(f"shaking{suffix}", lambda s=shaking: s()[0][:, 0], lambda s=shaking: s()[0][:, 1], Q["shaking"].si)
         out.put(f"shaking_moment{suffix}", lambda s=shaking: (s()[1], Q["shaking_moment"].si))
@@ -282,15 +279,22 @@ def flat_results(problem: Problem, sol: Solutions, values: dict | None = None) -
     return out
 
 
-def _lazy_point(link, spot):
-    cache = []
+def _once(make):
+    """*make*() on the first call, kept for the later ones. `flat_results` makes about fifty of these a
+    solve (a vector's components, a point, the shaking force), and solves one variant at a time in
+    every `generate` worker: `functools.cache` costs about 15 µs to make, a closure well under one."""
+    kept = []
 
     def get():
-        if not cache:
-            cache.append(spot_point(link, spot))
-        return cache[0]
+        if not kept:
+            kept.append(make())
+        return kept[0]
 
     return get
+
+
+def _lazy_point(link, spot):
+    return _once(lambda: spot_point(link, spot))
 
 
 def _origin(problem: Problem, sol: Solutions):

@@ -127,11 +127,13 @@ def generate(
                 if student is None:
                     _combine(out, asg, [names[s.student_id] for s in students], keys)
             else:
-                chunk = max(1, min(8, len(work) // (4 * jobs)))
                 # spawn, not fork: a forked child inherits typst's and matplotlib's threads mid-lock
                 ctx = multiprocessing.get_context("spawn")
                 with ProcessPoolExecutor(jobs, mp_context=ctx, initializer=_worker_init, initargs=(job,)) as pool:
-                    for d in pool.map(_one_packed, work, chunksize=chunk):
+                    # one student a task: a student is a third of a second of work and a task's round trip
+                    # well under a millisecond, so the workers end within one student of each other
+                    # (chunks of 8 left one core idle for up to 8 students at the end)
+                    for d in pool.map(_one_packed, work):
                         done[d.student_id] = d
                         bar.update(1)
                     if student is None:  # the two combined PDFs side by side in the workers
