@@ -52,6 +52,7 @@ VARIANTS = {
     "no-header-footer": lambda s: re.sub(r"header: context \{.*?\} \},\n", "", s, flags=re.S).replace(
         "footer: context { set text(8pt, fill: luma(90)); h(1fr); [Page #counter(page).display()]; h(1fr) })", ")"),
     "boxed-math": lambda s: re.sub(r"(?<!\\)\$([^$]*)\$", lambda m: "#box($" + m.group(1) + "$)", s),
+    "figures-as-boxes": lambda s: re.sub(r'fitted\("[^"]*"\)', "box(width: 12cm, height: 6cm)", s),
 }
 
 
