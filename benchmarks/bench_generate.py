@@ -89,9 +89,7 @@ def breakdown(n: int = 20) -> dict:
         out = Path(tmp) / "out"
         for sub in ("students", "keys", engine.BUILD):
             (out / sub).mkdir(parents=True)
-        job = engine._Job(str(ASSIGNMENT), str(out), True,
-                          {sid: {k: v.redraw for k, v in per.items()} for sid, per in variants.items()},
-                          {sid: {k: v.values for k, v in per.items()} for sid, per in variants.items()})
+        job = engine._Job(str(ASSIGNMENT), str(out), True, tuple(s.student_id for s in students))
         engine._init(job, asg, variants)
         pdf, pictures, context = typeset.Compiler.pdf, engine._pictures, engine.build_context
 

@@ -22,7 +22,6 @@ from gradekit.documents.context import Picture, Solved, build_context
 from gradekit.errors import GradekitError
 from gradekit.report import fmt
 from gradekit.roster import Student, read_roster, safe_names
-from gradekit.sampling import given
 
 log = logging.getLogger("gradekit")
 
@@ -48,8 +47,7 @@ class _Job:
     assignment: str
     out: str
     keys: bool
-    redraws: dict = field(default_factory=dict)  # {student: {label: re-draw counter}}
-    values: dict = field(default_factory=dict)  # {student: {label: the variant's drawn values}}
+    students: tuple[str, ...] = ()  # the roster's ids in order: the class a worker draws its variants for
 
 
 @dataclass
@@ -109,11 +107,12 @@ def generate(
         (out / sub).mkdir(parents=True, exist_ok=True)
     # The class's variants (explicit re-draws plus the class de-duplication) and their keys with the
     # catalogued mistakes, drawn and solved once here in class-wide batches, then frozen in
-    # keys.json for grading; workers get each variant's values, not a re-draw.
-    class_entries, variants = class_keys(asg, [s.student_id for s in students])
+    # keys.json for grading. A worker draws the same class's variants once when it starts (see
+    # `_worker_init`): the same batches, so the same numbers to the last bit.
+    ids = [s.student_id for s in students]
+    class_entries, variants = class_keys(asg, ids)
     redraws = {sid: {label: v.redraw for label, v in per.items()} for sid, per in variants.items()}
-    values = {sid: {label: v.values for label, v in per.items()} for sid, per in variants.items()}
-    job = _Job(str(Path(assignment)), str(out), keys, redraws, values)
+    job = _Job(str(Path(assignment)), str(out), keys, tuple(ids))
     summary = GenerateSummary(final, len(chosen))
     done: dict[str, _Done] = {}
     work = [(s, names[s.student_id]) for s in chosen]
@@ -218,9 +217,18 @@ def _init(job: _Job, asg: Assignment | None = None, variants: dict | None = None
 
 def _worker_init(job: _Job) -> None:
     """A pool worker: Typst on one thread (its thread pool would otherwise start a thread per core in
-    every worker, so that the workers' threads fight over the cores), then `_init`."""
+    every worker, so that the workers' threads fight over the cores), then `_init` with the class's
+    variants.
+
+    The worker draws and solves the class's variants itself, in the same class-wide batches as the
+    parent (`class_keys` with the same roster, without the mistakes): the printed numbers are those
+    frozen in keys.json to the last bit, as with one job. That costs about 0.5 ms a student once,
+    where solving each student's variants on their own (`sampling.given`) cost 8 ms a student, and a
+    solved variant cannot be sent (its results are closures)."""
     os.environ.setdefault("RAYON_NUM_THREADS", "1")  # read when Typst first starts its pool
-    _init(job)
+    asg = load_assignment(job.assignment)
+    variants = class_keys(asg, list(job.students), with_mistakes=False, need_keys=False)[1]
+    _init(job, asg, variants)
 
 
 def _one_packed(pair: tuple[Student, str]) -> _Done:
@@ -239,9 +247,7 @@ def _one(s: Student, safe: str) -> _Done:
     build.mkdir(parents=True, exist_ok=True)
     solved = []
     for item in asg.items:
-        v = _STATE["variants"].get(s.student_id, {}).get(item.label) or given(
-            item.problem, job.values[s.student_id][item.label], redraw=job.redraws[s.student_id][item.label]
-        )
+        v = _STATE["variants"][s.student_id][item.label]
         scenes, pics = _pictures(v.result, item.label, build, safe, job.keys, warnings, s)
         solved.append(Solved(item, v, tuple(scenes), tuple(pics)))
     folder = out / "students" / safe
