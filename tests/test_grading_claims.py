@@ -65,14 +65,14 @@ def test_whichever_process_is_slower_the_outputs_are_those_of_one(
         return real_graded(student, *args)
 
     monkeypatch.setattr(batch, "grade_student", timed)
-    unpacked: list[str] = []
-    real_unpack = batch.unpack
+    unpacked: list[str] = []  # the students whose grade the helper sent
 
-    def counted(data, student, entries):
-        unpacked.append(student.student_id)
-        return real_unpack(data, student, entries)
+    class Counted(batch.PackedGrade):
+        def __init__(self, data, student, entries):
+            unpacked.append(student.student_id)
+            super().__init__(data, student, entries)
 
-    monkeypatch.setattr(batch, "unpack", counted)
+    monkeypatch.setattr(batch, "PackedGrade", Counted)
     _helper(monkeypatch, 1.0)
     helped, helped_files = _run(subs, tmp_path / "helped")
     assert helped_files == alone_files

@@ -9,6 +9,7 @@ import time
 from collections.abc import Iterable, Iterator, Mapping, Sequence
 from contextlib import closing, contextmanager, nullcontext
 from dataclasses import dataclass
+from functools import partial
 from itertools import groupby
 from operator import attrgetter
 from pathlib import Path
@@ -28,7 +29,7 @@ from gradekit.grading.exports import (
     write_text,
 )
 from gradekit.grading.integrity import IntegrityFlag, class_keys, find_copies
-from gradekit.grading.parallel import Claims, Forked, Look, Stream, helper_share, pack, unpack
+from gradekit.grading.parallel import Claims, Forked, Look, PackedGrade, Stream, helper_share, pack
 from gradekit.grading.reader import IdIndex, KeyIndex, Submission, read_file, special_kind
 from gradekit.keys import KeyColumns, KeyEntry
 from gradekit.roster import Student
@@ -63,15 +64,61 @@ class Intake:
     files: tuple[FileRecord, ...]
 
 
+class Grades(Sequence[StudentGrade]):
+    """`BatchResult.grades`: one grade per roster student, in roster order, those a helper process
+    sent (`PackedGrade`) built as `StudentGrade` on first access (a command-line run reads none of
+    them). Equal to the tuple of the same grades, and pickled as one.
+    """
+
+    __slots__ = ("_grades",)
+
+    def __init__(self, grades: Iterable[StudentGrade]) -> None:
+        self._grades = list(grades)
+
+    def as_made(self) -> list[StudentGrade]:
+        """The grades as they are, a helper's not built: their student, submission, problems, issues
+        and `StudentGrade.columns` are at hand, their results built when read."""
+        return self._grades
+
+    def __len__(self) -> int:
+        return len(self._grades)
+
+    def __getitem__(self, i):  # noqa: ANN001, ANN204 (an index or a slice, as a tuple's)
+        if isinstance(i, slice):
+            return tuple(self[j] for j in range(*i.indices(len(self._grades))))
+        g = self._grades[i]
+        if isinstance(g, PackedGrade):
+            g = self._grades[i] = g.built()
+        return g
+
+    def __iter__(self) -> Iterator[StudentGrade]:
+        return map(self.__getitem__, range(len(self._grades)))
+
+    def __eq__(self, other: object) -> bool:
+        if isinstance(other, Grades | tuple):
+            return tuple(self) == tuple(other)
+        return NotImplemented
+
+    def __hash__(self) -> int:
+        return hash(tuple(self))
+
+    def __repr__(self) -> str:
+        return repr(tuple(self))
+
+    def __reduce__(self) -> tuple:
+        return tuple, (tuple(self),)
+
+
 @dataclass(frozen=True)
 class BatchResult:
     """The outcome of `grade_batch`.
 
     ``grades`` holds one entry per roster student, in roster order (a student without a
-    submission scores 0 with ``submission=None``).
+    submission scores 0 with ``submission=None``): a `Grades`, which builds on first access those a
+    helper process graded.
     """
 
-    grades: tuple[StudentGrade, ...]
+    grades: Grades
     files: tuple[FileRecord, ...]
     flags: tuple[IntegrityFlag, ...]
     out: Path
@@ -80,12 +127,12 @@ class BatchResult:
     @property
     def graded(self) -> int:
         """How many students had a submission graded."""
-        return sum(g.submission is not None for g in self.grades)
+        return sum(g.submission is not None for g in self.grades.as_made())
 
     @property
     def missing(self) -> tuple[Student, ...]:
         """Roster students without a submission."""
-        return tuple(g.student for g in self.grades if g.submission is None)
+        return tuple(g.student for g in self.grades.as_made() if g.submission is None)
 
     @property
     def ok(self) -> bool:
@@ -98,7 +145,7 @@ class BatchResult:
         return (
             all(f.status in ("graded", "ignored") for f in self.files)
             and not self.missing
-            and not any(g.issues for g in self.grades)
+            and not any(g.issues for g in self.grades.as_made())
         )
 
 
@@ -121,8 +168,8 @@ class IdConflict(IntegrityFlag):
 class StudentKeys:
     """Every student's key entries for `grade_batch` without building them first (the frozen keys,
     `gradekit.frozen.FrozenKeys`, build a student's list on first access): each process builds those
-    of the students it grades, and the parent those of the helper's students while the helper grades
-    (copy detection and the helper's grades need every entry).
+    of the students it grades; those of a helper process's students only when their results are read
+    (`PackedGrade`: a command-line run never does), and copy detection reads the keys as columns.
 
     ``entries`` per student; ``order``: the students whose entries make the class's key sequence
     (`all`), in its order; ``answers``: each answer key in that sequence, with its problem, in order
@@ -521,11 +568,11 @@ def _grade_batch(
         helped: dict[str, StudentGrade] = {}
 
         def receive() -> None:
-            """The helper's grades sent so far, rebuilt (between the parent's own, so it never waits)."""
+            """The helper's grades sent so far (between the parent's own, so it never waits), not built."""
             for packed in stream.receive():
                 for data in packed:
                     sid = data[0][1]
-                    helped[sid] = unpack(data, by_id[sid], entries.get(sid, []))
+                    helped[sid] = PackedGrade(data, by_id[sid], partial(entries.get, sid, []))
 
         claims, stream = (Claims(len(share)), Stream()) if share else (None, None)
         with (
@@ -543,8 +590,6 @@ def _grade_batch(
                     receive()
             if lazy is not None:
                 keys = lazy.columns()  # copy detection's view of every key, entries not built
-                for sid in share:  # built now, while the helper grades: each is graded or rebuilt here
-                    entries.get(sid)
             prepared = class_keys(keys)  # the keys' part of copy detection, while the helper grades
             taken: dict[str, StudentGrade] = {}
             if claims is not None:  # then the helper's share from the front, until the two meet
@@ -596,7 +641,7 @@ def _grade_batch(
             "gradekit grading output; files listed here are rewritten by the next run, others are left alone",
             extra_previous=() if stage.previous() else _unlisted_outputs(out),
         )
-    return BatchResult(tuple(grades), intake_files, tuple(flags), out, tuple(written))
+    return BatchResult(Grades(grades), intake_files, tuple(flags), out, tuple(written))
 
 
 def _helper_share(students: Sequence[Student], named: Sequence[str | None], since: Look | None = None) -> list[str]:

@@ -6,6 +6,7 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from functools import lru_cache
+from operator import attrgetter
 
 from gradekit.errors import GradekitError
 from gradekit.grading.reader import Answer, Issue, Submission
@@ -123,6 +124,24 @@ class ProblemScore:
 
 
 @dataclass(frozen=True)
+class ResultColumns:
+    """What the passes over a whole class (the report's item analysis, copy detection, the carried
+    count) read of one grade's results, as columns, one item a result in order: its answer key, its
+    value (None: no value), its verdict, the name of its diagnosis (None: none) and whether it was
+    carried forward."""
+
+    keys: Sequence[str]
+    values: Sequence[float | None]
+    correct: Sequence[bool]
+    diagnoses: Sequence[str | None]
+    carried: Sequence[bool]
+
+
+_KEY_OF, _VALUE_OF, _CORRECT_OF = attrgetter("entry.key"), attrgetter("value"), attrgetter("correct")
+_DIAGNOSIS_OF, _CARRIED_OF = attrgetter("diagnosis"), attrgetter("carried")
+
+
+@dataclass(frozen=True)
 class StudentGrade:
     """One student's graded submission (or the lack of one)."""
 
@@ -146,6 +165,18 @@ class StudentGrade:
     def percent(self) -> float:
         """Total as a percentage of the maximum (0 when nothing was available)."""
         return 100.0 * self.total / self.max_points if self.max_points else 0.0
+
+    def columns(self) -> ResultColumns:
+        """The results as columns (`ResultColumns`): what a pass over the class reads. A grade a helper
+        process sent (`gradekit.grading.parallel.PackedGrade`) has them without building its results."""
+        results = self.results
+        return ResultColumns(
+            list(map(_KEY_OF, results)),
+            list(map(_VALUE_OF, results)),
+            list(map(_CORRECT_OF, results)),
+            [None if d is None else d.name for d in map(_DIAGNOSIS_OF, results)],
+            [c is not None for c in map(_CARRIED_OF, results)],
+        )
 
 
 _DEGREES = ("deg", "degree", "degrees", "°")

@@ -52,7 +52,7 @@ def write_grades(
             round(g.percent, 2),
         ]
         if carried:
-            row.append(sum(r.carried is not None for r in g.results))
+            row.append(sum(g.columns().carried))
         rows.append(row)
     write_csv(path, header, rows)
 
@@ -493,18 +493,18 @@ def report_markdown(
     ]
     stats: dict[str, list] = {}  # key -> [results, right, unanswered, mistake names]: one pass over the class
     for g in submitted:
-        for r in g.results:
-            key = r.entry.key
+        c = g.columns()
+        for key, correct, value, diagnosis in zip(c.keys, c.correct, c.values, c.diagnoses, strict=True):
             row = stats.get(key)
             if row is None:
                 row = stats[key] = [0, 0, 0, []]
             row[0] += 1
-            if r.correct:
+            if correct:
                 row[1] += 1
-            if r.value is None:
+            if value is None:
                 row[2] += 1
-            if r.diagnosis:
-                row[3].append(r.diagnosis.name)
+            if diagnosis is not None:
+                row[3].append(diagnosis)
     for key, (total, right, unanswered, names) in stats.items():
         common = ", ".join(f"{name} ({n})" for name, n in Counter(names).most_common(3)) or "–"
         share = 100.0 * right / total
@@ -534,7 +534,8 @@ def _carried_section(submitted: Sequence[StudentGrade], limits: Sequence[tuple[s
     per: Counter[str] = Counter()
     students = 0
     for g in submitted:
-        mine = [r.entry.key for r in g.results if r.carried is not None]
+        c = g.columns()
+        mine = [key for key, carried in zip(c.keys, c.carried, strict=True) if carried]
         per.update(mine)
         students += bool(mine)
     out = ["## Carried forward", ""]

@@ -332,7 +332,7 @@ def _class_keys(
 
 
 _STUDENT, _KEY, _VALUE, _TOLERANCE = (attrgetter(f) for f in ("student_id", "key", "value", "tolerance"))
-_ENTRY, _CORRECT = attrgetter("entry"), attrgetter("correct")
+_KEYS, _VALUES, _CORRECTS = attrgetter("keys"), attrgetter("values"), attrgetter("correct")  # of `ResultColumns`
 
 
 def find_copies(
@@ -390,13 +390,13 @@ def find_copies(
     # per answer key: the submitted values (student row, value, wrong for them), keys in the order first answered
     # every result as columns (student row, answer, value, wrong for them), then those with a finite value
     # of an answer of the keys
-    results = [g.results for g in subs]
-    flat = list(chain.from_iterable(results))
-    n = len(flat)
-    g_row = np.repeat(np.arange(n_sub), list(map(len, results)))
-    g_key = np.fromiter(map(aid.get, map(_KEY, map(_ENTRY, flat)), repeat(-1)), np.int64, n)
-    g_x = np.array(list(map(_VALUE, flat)), dtype=float)  # None (no value) as NaN
-    g_wrong = ~np.fromiter(map(_CORRECT, flat), bool, n)
+    columns = [g.columns() for g in subs]
+    lengths = [len(c.keys) for c in columns]
+    n = sum(lengths)
+    g_row = np.repeat(np.arange(n_sub), lengths)
+    g_key = np.fromiter(map(aid.get, chain.from_iterable(map(_KEYS, columns)), repeat(-1)), np.int64, n)
+    g_x = np.array(list(chain.from_iterable(map(_VALUES, columns))), dtype=float)  # None (no value) as NaN
+    g_wrong = ~np.fromiter(chain.from_iterable(map(_CORRECTS, columns)), bool, n)
     own = np.bincount(g_row[~g_wrong], minlength=n_sub).tolist()  # each one's right answers
     given = np.isfinite(g_x) & (g_key >= 0)
     g_row, g_key, g_x, g_wrong = g_row[given], g_key[given], g_x[given], g_wrong[given]

@@ -20,10 +20,11 @@ import warnings
 from array import array
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import replace
+from functools import cached_property
 from itertools import chain, compress
 from operator import attrgetter
 
-from gradekit.grading.compare import AnswerResult, ProblemScore, StudentGrade
+from gradekit.grading.compare import AnswerResult, ProblemScore, ResultColumns, StudentGrade
 from gradekit.grading.reader import Answer, Issue, Submission
 from gradekit.keys import KeyEntry, Mistake
 from gradekit.roster import Student
@@ -339,14 +340,19 @@ _SEP = "\x00"  # joins a student's texts: no cell, unit or message holds a NUL (
 _TEXTS = attrgetter("key", "raw", "raw_unit", "unit", "field", "issue")  # an answer's, in `Answer`'s order
 _NUMBER, _LINE, _ANSWER, _CORRECT, _MESSAGE = map(attrgetter, ("number", "line", "answer", "correct", "message"))
 _VALUE, _REL, _ABS, _ERROR, _POINTS = map(attrgetter, ("value", "rel_error", "abs_error", "error", "points"))
+_KEY, _ENTRY_KEY = attrgetter("key"), attrgetter("entry.key")
+_HEAD = ("path", "student_id", "claimed", "readable", "mtime", "class_wide", "named", "conflicts")  # a submission's
+_HEAD_OF, _SUBMISSION = attrgetter(*_HEAD), attrgetter(*Submission.__dataclass_fields__)  # (the first in `pack`)
 
 
 def pack(grade: StudentGrade) -> tuple:
-    """A grade as a few strings, byte strings and short lists, cheap to pickle (`unpack` undoes it).
+    """A grade as a few strings, byte strings and short lists, cheap to pickle (`unpack` undoes it;
+    `PackedGrade` reads it as it is).
 
-    Its results refer to the student's key entries by position and to the answers by their place
-    in the submission; each result's points follow from its key entry and verdict (or, for an
-    answer carried forward, travel with its `Carried` record).
+    Its results refer to the student's key entries by position (their keys travel along, to check
+    them and for `StudentGrade.columns`) and to the answers by their place in the submission; each
+    result's points follow from its key entry and verdict (or, for an answer carried forward, travel
+    with its `Carried` record).
     """
     sub = grade.submission
     if sub is None:
@@ -356,8 +362,9 @@ def pack(grade: StudentGrade) -> tuple:
     where[id(None)] = -1  # no answer
     texts = list(chain.from_iterable(map(_TEXTS, answers)))
     texts += map(_MESSAGE, results)
+    keys = list(map(_ENTRY_KEY, results))
     joined = _SEP.join(texts)
-    if texts and joined.count(_SEP) != len(texts) - 1:
+    if (texts and joined.count(_SEP) != len(texts) - 1) or any(_SEP in k for k in keys):
         raise ValueError("expected texts without NUL characters")
     mistakes = [
         (i, kind, m.name, m.description, m.value)
@@ -367,7 +374,7 @@ def pack(grade: StudentGrade) -> tuple:
     ]
     carried = [(i, r.points, r.carried) for i, r in enumerate(results) if r.carried is not None]
     return (
-        (sub.path, sub.student_id, sub.claimed, sub.readable, sub.mtime, sub.class_wide, sub.named, sub.conflicts),
+        _HEAD_OF(sub),
         tuple(_issue(i) for i in sub.issues),
         tuple(_issue(i) for i in grade.issues),
         tuple((p.problem, p.points, p.max_points) for p in grade.problems),
@@ -383,40 +390,143 @@ def pack(grade: StudentGrade) -> tuple:
         _floats(list(map(_ERROR, results))),
         mistakes,
         carried,
+        _SEP.join(keys),
     )
 
 
 def unpack(data: tuple, student: Student, entries: Sequence[KeyEntry]) -> StudentGrade:
     """The grade `pack` made, for *student* graded against *entries* (their key entries, in order)."""
-    head, sub_issues, issues, problems, n, texts, numbers, lines, at, correct, value, rel, err, error = data[:14]
-    mistakes, carried = data[14:]
-    texts = texts.split(_SEP) if texts or n or entries else []
+    return PackedGrade(data, student, lambda: entries).built()
+
+
+def _texts(data: tuple) -> list[str]:
+    """The texts of a grade `pack` made: six per answer (`_TEXTS`), then each result's message."""
+    return data[5].split(_SEP) if data[5] or data[4] or data[9] else []
+
+
+def _answers(data: tuple) -> tuple[Answer, ...]:
+    """The answers of the submission of a grade `pack` made."""
+    n, texts, numbers, lines = data[4], _texts(data), data[6], data[7]
     line_numbers = array("q")
     line_numbers.frombytes(lines)
-    answers = tuple(map(
+    return tuple(map(
         Answer, texts[0 : 6 * n : 6], texts[1 : 6 * n : 6], texts[2 : 6 * n : 6], _unfloats(*numbers),
         texts[3 : 6 * n : 6], line_numbers.tolist(), texts[4 : 6 * n : 6], texts[5 : 6 * n : 6],
     ))
-    path, sid, claimed, readable, mtime, class_wide, named, conflicts = head
-    sub = Submission(path, sid, answers, tuple(Issue(*i) for i in sub_issues), claimed, readable, mtime, class_wide,
-                     named, conflicts)
+
+
+def _results(data: tuple, student: Student, sub: Submission, entries: Sequence[KeyEntry]) -> tuple[AnswerResult, ...]:
+    """The results of a grade `pack` made, against *entries*, answering *sub*'s answers."""
+    at, correct, value, rel, err, error, mistakes, carried, keys = data[8:]
     which = array("q")
     which.frombytes(at)
-    if len(which) != len(entries) or len(correct) != len(entries) or len(texts) != 6 * n + len(entries):
+    if len(which) != len(entries) or len(correct) != len(entries):
         raise ValueError(f"expected {len(entries)} results for {student.student_id}, got {len(which)}")
+    if keys != _SEP.join(map(_KEY, entries)):
+        raise ValueError(f"expected results for {student.student_id}'s key entries, got results for other keys")
     found: list[list[Mistake | None]] = [[None] * len(entries), [None] * len(entries)]  # diagnosis, of method
     for i, kind, *m in mistakes:
         found[kind][i] = Mistake(*m)
     verdicts = [ok == 1 for ok in correct]
     earned = [e.points if ok else 0.0 for e, ok in zip(entries, verdicts, strict=True)]
     rebuilt = list(map(
-        AnswerResult, entries, map((*answers, None).__getitem__, which.tolist()), _unfloats(*value), verdicts, earned,
-        _unfloats(*rel), _unfloats(*err), found[0], texts[6 * n :], _unfloats(*error), found[1],
+        AnswerResult, entries, map((*sub.answers, None).__getitem__, which.tolist()), _unfloats(*value), verdicts,
+        earned, _unfloats(*rel), _unfloats(*err), found[0], _texts(data)[6 * data[4] :], _unfloats(*error), found[1],
     ))
     for i, points, c in carried:  # carried-forward credit: the points and the record behind them
         rebuilt[i] = replace(rebuilt[i], points=points, carried=c)
-    scores = tuple(ProblemScore(*p) for p in problems)
-    return StudentGrade(student, sub, tuple(rebuilt), scores, tuple(Issue(*i) for i in issues))
+    return tuple(rebuilt)
+
+
+def _columns(data: tuple) -> ResultColumns:
+    """`StudentGrade.columns` of a grade `pack` made, read from it without building its results; checks
+    that its parts agree in length."""
+    n_answers, texts, numbers, lines, at, correct, value, mistakes, carried, keys = (
+        data[4], data[5], data[6], data[7], data[8], data[9], data[10], data[14], data[15], data[16])
+    n = len(correct)
+    names = keys.split(_SEP) if n else []
+    values = _unfloats(*value)
+    if len(names) != n or len(values) != n or len(at) != 8 * n or correct.translate(None, b"\x00\x01"):
+        raise ValueError(f"expected {n} keys, values, answers and verdicts (0 or 1), got {len(names)} keys and "
+                         f"{len(values)} values")
+    if (texts.count(_SEP) + 1 if texts or n_answers or n else 0) != 6 * n_answers + n or not (
+        len(numbers[0]) == len(lines) == 8 * n_answers and len(numbers[1]) in (0, n_answers)
+    ):
+        raise ValueError(f"expected {n_answers} answers and {n} messages, got other lengths")
+    diagnoses: list[str | None] = [None] * n
+    for i, kind, name, *_ in mistakes:
+        if kind == 0:
+            diagnoses[i] = name
+    flags = [False] * n
+    for i, *_ in carried:
+        flags[i] = True
+    return ResultColumns(names, values, list(map(bool, correct)), diagnoses, flags)
+
+
+class PackedSubmission(Submission):
+    """The submission of a grade a helper process sent (`pack`): everything but its answers made at once,
+    its answers when first read. `built` is the same as a plain `Submission`, and a copy or a pickle is one."""
+
+    def __init__(self, data: tuple) -> None:
+        fields = self.__dict__  # (a frozen dataclass: its fields written directly, as its own __init__ does)
+        fields.update(zip(_HEAD, data[0], strict=True))
+        fields["issues"] = tuple(Issue(*i) for i in data[1])
+        fields["_packed"] = data
+
+    @cached_property
+    def answers(self) -> tuple[Answer, ...]:  # (kept in the instance, as the field would be)
+        return _answers(self.__dict__["_packed"])
+
+    def built(self) -> Submission:
+        """The same submission as a `Submission`."""
+        return Submission(*_SUBMISSION(self))
+
+    def __reduce__(self) -> tuple:
+        return Submission, _SUBMISSION(self)
+
+
+class PackedGrade(StudentGrade):
+    """A grade a helper process sent (`pack`), as the parent keeps it: its student, problem scores and
+    messages made at once, its submission a `PackedSubmission` (answers made when read), its results'
+    columns (`columns`: all the report, copy detection and the grade table read of them) read straight
+    from the packed data, and its results only when first read (against the student's key entries, from
+    *entries* then: the parent builds none of them for the helper's students otherwise). `built` is the
+    same grade as a plain `StudentGrade`, and a copy or a pickle of it is one.
+
+    Raises:
+        ValueError: *data* is not a grade `pack` made (its parts disagree).
+    """
+
+    def __init__(self, data: tuple, student: Student, entries: Callable[[], Sequence[KeyEntry]]) -> None:
+        try:
+            columns = _columns(data)
+            submission = PackedSubmission(data)
+            problems = tuple(ProblemScore(*p) for p in data[3])
+            issues = tuple(Issue(*i) for i in data[2])
+        except (ValueError, TypeError, IndexError) as exc:
+            raise ValueError(f"expected a grade packed for {student.student_id}, got a malformed one ({exc})") from None
+        fields = self.__dict__  # (a frozen dataclass: its fields written directly, as its own __init__ does)
+        fields["student"] = student
+        fields["submission"] = submission
+        fields["problems"] = problems
+        fields["issues"] = issues
+        fields["_packed"] = (data, entries, columns)
+
+    @cached_property
+    def results(self) -> tuple[AnswerResult, ...]:  # (kept in the instance, as the field would be)
+        data, entries, _ = self.__dict__["_packed"]
+        return _results(data, self.student, self.submission, entries())
+
+    def columns(self) -> ResultColumns:
+        return self.__dict__["_packed"][2]
+
+    def built(self) -> StudentGrade:
+        """The same grade as a `StudentGrade` (its results and its submission's answers built)."""
+        results = self.results
+        return StudentGrade(self.student, self.submission.built(), results, self.problems, self.issues)
+
+    def __reduce__(self) -> tuple:
+        return StudentGrade, (self.student, self.submission.built(), self.results, self.problems, self.issues)
 
 
 def _issue(i: Issue) -> tuple:
