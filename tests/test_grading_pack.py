@@ -1,5 +1,6 @@
 """A grade handed back by the helper process (`pack`/`unpack`): unanswered keys, unreadable cells,
-unit conversions, diagnoses and carried credit come back equal; a grade for other entries is refused."""
+unit conversions, diagnoses and carried credit come back equal when graded again; a grade for other
+entries is refused."""
 
 from __future__ import annotations
 
@@ -9,7 +10,7 @@ from dataclasses import replace
 import pytest
 
 from gradekit.grading.compare import grade_student
-from gradekit.grading.parallel import pack, unpack
+from gradekit.grading.parallel import PackedGrade, pack, unpack
 from gradekit.grading.reader import Answer, Issue, Submission
 from gradekit.keys import KeyEntry, Mistake, Tolerance
 from gradekit.roster import Student
@@ -48,17 +49,24 @@ def test_a_grade_with_every_kind_of_result_comes_back_equal():
     assert math.isclose(back.total, 1.0) and back.issues == grade.issues
 
 
-def test_carried_credit_comes_back_with_its_points():
-    grade = _grade()
+def _carry(grade):
+    """*grade* with carried credit on its first answer (as `CarryForward.apply` gives it)."""
     results = list(grade.results)
     results[0] = replace(results[0], points=1.0, carried=("p1.T", 0.5))
-    grade = replace(grade, results=tuple(results))
-    back = unpack(pack(grade), STUDENT, ENTRIES)
+    return replace(grade, results=tuple(results))
+
+
+def test_carried_credit_comes_back_with_its_points_when_graded_again_with_it():
+    grade = _carry(_grade())
+    data = pack(grade)
+    back = PackedGrade(data, STUDENT, lambda sub: _carry(grade_student(STUDENT, ENTRIES, sub))).built()
     assert back == grade and back.results[0].points == 1.0 and back.results[0].carried == ("p1.T", 0.5)
+    with pytest.raises(ValueError, match="expected 1001's submission to grade as the helper process graded it"):
+        unpack(data, STUDENT, ENTRIES)  # graded again without the carried credit
 
 
 def test_a_grade_unpacked_for_other_entries_is_refused():
-    with pytest.raises(ValueError, match="expected 3 results for 1001, got 4"):
+    with pytest.raises(ValueError, match="expected 1001's submission to grade as the helper process graded it"):
         unpack(pack(_grade()), STUDENT, ENTRIES[:3])
 
 

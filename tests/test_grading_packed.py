@@ -12,26 +12,24 @@ import pytest
 
 from gradekit.grading.batch import Grades
 from gradekit.grading.compare import StudentGrade, grade_student
-from gradekit.grading.parallel import PackedGrade, pack, unpack
+from gradekit.grading.parallel import PackedGrade, pack
 from gradekit.grading.reader import Submission
 from gradekit.roster import Student
-from tests.test_grading_pack import ENTRIES, STUDENT, _grade
+from tests.test_grading_pack import ENTRIES, STUDENT, _carry, _grade
 
 
 def _carried():
-    grade = _grade()
-    results = list(grade.results)
-    results[0] = replace(results[0], points=1.0, carried=("p1.T", 0.5))
-    return replace(grade, results=tuple(results))
+    return _carry(_grade())
 
 
-def _packed(grade: StudentGrade, asked: list | None = None) -> PackedGrade:
-    def entries():
+def _packed(grade: StudentGrade, asked: list | None = None, entries=ENTRIES) -> PackedGrade:
+    def regrade(sub):
         if asked is not None:
             asked.append(1)
-        return ENTRIES
+        again = grade_student(STUDENT, entries, sub)
+        return _carry(again) if any(r.carried for r in grade.results) else again
 
-    return PackedGrade(pack(grade), STUDENT, entries)
+    return PackedGrade(pack(grade), STUDENT, regrade)
 
 
 @pytest.mark.parametrize("make", [_grade, _carried])
@@ -51,7 +49,8 @@ def test_a_packed_grade_reads_its_columns_without_its_entries_and_builds_the_sam
     packed.results  # noqa: B018 (built once)
     assert asked == [1]
     built = packed.built()
-    assert type(built) is StudentGrade and built == grade == unpack(pack(grade), STUDENT, ENTRIES)
+    assert type(built) is StudentGrade and built == grade
+    assert built.results[0].answer is built.submission.answers[0]
 
 
 def test_the_columns_of_a_grade():
@@ -73,7 +72,7 @@ def test_a_packed_grade_without_a_submission_or_answers_is_refused_or_kept():
     with pytest.raises(ValueError, match="expected a graded submission"):
         pack(grade_student(STUDENT, ENTRIES, None))
     empty = grade_student(STUDENT, [], Submission("1001.csv", "1001", named="1001"))
-    back = PackedGrade(pack(empty), STUDENT, lambda: [])
+    back = PackedGrade(pack(empty), STUDENT, lambda sub: grade_student(STUDENT, [], sub))
     assert back.columns() == empty.columns() and back.built() == empty
 
 
@@ -84,13 +83,16 @@ def _broken(data: tuple, at: int, value) -> tuple:
 @pytest.mark.parametrize(
     ("at", "value", "message"),
     [
-        (16, "p1.T\x00p1.F\x00p2.a", "got 3 keys"),  # a key missing
+        (8, "p1.T\x00p1.F\x00p2.a", "got 3 keys"),  # a key missing
         (9, bytes([0, 0, 2, 1]), "verdicts \\(0 or 1\\)"),  # a verdict neither right nor wrong
         (9, bytes([0, 0, 1]), "expected 3 keys"),  # a verdict missing
         (10, (b"\x00" * 8, b""), "got 4 keys and 1 values"),  # a value missing
-        (14, [(9, 0, "x", "x", 1.0)], "malformed"),  # a diagnosis of no result
+        (11, [(9, "x")], "malformed"),  # a diagnosis of no result
+        (12, [9], "malformed"),  # carried credit on no result
         (4, 9, "expected 9 answers"),  # more answers than texts
+        (7, b"\x00" * 8, "expected 4 answers"),  # a line number missing
         (3, ((1, 2),), "malformed"),  # a problem score without its maximum
+        (0, ("1001.csv", "1001"), "malformed"),  # a submission's head cut short
     ],
 )
 def test_a_malformed_packed_grade_is_refused(at, value, message):
@@ -99,10 +101,18 @@ def test_a_malformed_packed_grade_is_refused(at, value, message):
         PackedGrade(_broken(data, at, value), STUDENT, lambda: ENTRIES)
 
 
-def test_a_packed_grade_built_against_other_keys_is_refused():
-    renamed = [replace(e, key=e.key + "x") if i == 1 else e for i, e in enumerate(ENTRIES)]
-    packed = PackedGrade(pack(_grade()), STUDENT, lambda: renamed)
-    with pytest.raises(ValueError, match="expected results for 1001's key entries, got results for other keys"):
+@pytest.mark.parametrize(
+    "entries",
+    [
+        [replace(e, key=e.key + "x") if i == 1 else e for i, e in enumerate(ENTRIES)],  # another key
+        [replace(e, value=e.value + 10) if i == 3 else e for i, e in enumerate(ENTRIES)],  # a right answer wrong
+        ENTRIES[:3],
+    ],
+)
+def test_a_packed_grade_graded_again_otherwise_is_refused(entries):
+    packed = _packed(_grade(), entries=entries)
+    assert packed.columns() == _grade().columns()
+    with pytest.raises(ValueError, match="expected 1001's submission to grade as the helper process graded it"):
         packed.results  # noqa: B018
 
 

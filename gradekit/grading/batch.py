@@ -537,10 +537,12 @@ def _grade_batch(
         def read(indices: list[int]) -> dict[int, list[Submission]]:
             return {i: read_file(*files[i], ids, key_index, found=found[i]) for i in indices}
 
+        def grade(student: Student, sub: Submission | None) -> StudentGrade:
+            g = grade_student(student, entries.get(student.student_id, []), sub)
+            return carry.apply(g) if carry is not None else g
+
         def graded(student: Student, chosen: Mapping[str, Submission]) -> StudentGrade:
-            g = grade_student(student, entries.get(student.student_id, []), chosen.get(student.student_id))
-            if carry is not None:
-                g = carry.apply(g)
+            g = grade(student, chosen.get(student.student_id))
             md, page = feedback_pages(g, titles, assignment_title, reveal, hint)
             stem = names[student.student_id]
             write_staged(f"{in_feedback}{stem}.md", md)
@@ -572,7 +574,7 @@ def _grade_batch(
             for packed in stream.receive():
                 for data in packed:
                     sid = data[0][1]
-                    helped[sid] = PackedGrade(data, by_id[sid], partial(entries.get, sid, []))
+                    helped[sid] = PackedGrade(data, by_id[sid], partial(grade, by_id[sid]))
 
         claims, stream = (Claims(len(share)), Stream()) if share else (None, None)
         with (

@@ -2,8 +2,10 @@
 students it is given while the first process does the rest, then hands back their grades.
 
 The helper is forked, so it starts in milliseconds with the keys and roster the parent has already
-read, and its grades come back as a few strings and byte strings per student (`pack`/`unpack`:
-pickling the records themselves would send every student's keys along and cost more than grading).
+read, and its grades come back as a few strings and byte strings per student: the submission it read
+and what the parent reads of the grade (`pack`, `PackedGrade`; the parent grades the submission again
+only if the results themselves are asked for). Pickling the records themselves would send every
+student's keys along and cost more than grading.
 Where fork is not available (Windows, macOS's default), in a program with other threads, on one
 core, or while the other cores are busy, everything stays in one process.
 """
@@ -19,14 +21,13 @@ import traceback
 import warnings
 from array import array
 from collections.abc import Callable, Iterator, Sequence
-from dataclasses import replace
 from functools import cached_property
 from itertools import chain, compress
 from operator import attrgetter
 
-from gradekit.grading.compare import AnswerResult, ProblemScore, ResultColumns, StudentGrade
+from gradekit.grading.compare import AnswerResult, ProblemScore, ResultColumns, StudentGrade, grade_student
 from gradekit.grading.reader import Answer, Issue, Submission
-from gradekit.keys import KeyEntry, Mistake
+from gradekit.keys import KeyEntry
 from gradekit.roster import Student
 
 FROM = 200
@@ -336,43 +337,29 @@ def _unfloats(data: bytes, none: bytes) -> list[float | None]:
     return values
 
 
-_SEP = "\x00"  # joins a student's texts: no cell, unit or message holds a NUL (the reader refuses them)
+_SEP = "\x00"  # joins a student's texts: no cell, unit or key holds a NUL (the reader refuses them)
 _TEXTS = attrgetter("key", "raw", "raw_unit", "unit", "field", "issue")  # an answer's, in `Answer`'s order
-_NUMBER, _LINE, _ANSWER, _CORRECT, _MESSAGE = map(attrgetter, ("number", "line", "answer", "correct", "message"))
-_VALUE, _REL, _ABS, _ERROR, _POINTS = map(attrgetter, ("value", "rel_error", "abs_error", "error", "points"))
-_KEY, _ENTRY_KEY = attrgetter("key"), attrgetter("entry.key")
+_NUMBER, _LINE, _CORRECT, _VALUE = map(attrgetter, ("number", "line", "correct", "value"))
+_DIAGNOSIS, _CARRIED, _ENTRY_KEY = attrgetter("diagnosis"), attrgetter("carried"), attrgetter("entry.key")
 _HEAD = ("path", "student_id", "claimed", "readable", "mtime", "class_wide", "named", "conflicts")  # a submission's
 _HEAD_OF, _SUBMISSION = attrgetter(*_HEAD), attrgetter(*Submission.__dataclass_fields__)  # (the first in `pack`)
 
 
 def pack(grade: StudentGrade) -> tuple:
-    """A grade as a few strings, byte strings and short lists, cheap to pickle (`unpack` undoes it;
-    `PackedGrade` reads it as it is).
-
-    Its results refer to the student's key entries by position (their keys travel along, to check
-    them and for `StudentGrade.columns`) and to the answers by their place in the submission; each
-    result's points follow from its key entry and verdict (or, for an answer carried forward, travel
-    with its `Carried` record).
+    """A graded submission as a few strings, byte strings and short lists, cheap to pickle: the
+    submission as read, and of the grade what the parent reads of it (`PackedGrade`): its problem
+    scores, messages and `StudentGrade.columns`. The results themselves stay behind: grading the
+    same submission against the same key entries makes them again (`PackedGrade.results`).
     """
     sub = grade.submission
     if sub is None:
         raise ValueError("expected a graded submission, got none")
     answers, results = sub.answers, grade.results
-    where = dict(zip(map(id, answers), range(len(answers)), strict=True))
-    where[id(None)] = -1  # no answer
     texts = list(chain.from_iterable(map(_TEXTS, answers)))
-    texts += map(_MESSAGE, results)
     keys = list(map(_ENTRY_KEY, results))
-    joined = _SEP.join(texts)
-    if (texts and joined.count(_SEP) != len(texts) - 1) or any(_SEP in k for k in keys):
+    joined, joined_keys = _SEP.join(texts), _SEP.join(keys)
+    if (texts and joined.count(_SEP) != len(texts) - 1) or (keys and joined_keys.count(_SEP) != len(keys) - 1):
         raise ValueError("expected texts without NUL characters")
-    mistakes = [
-        (i, kind, m.name, m.description, m.value)
-        for i, r in enumerate(results)
-        for kind, m in ((0, r.diagnosis), (1, r.method_diagnosis))
-        if m is not None
-    ]
-    carried = [(i, r.points, r.carried) for i, r in enumerate(results) if r.carried is not None]
     return (
         _HEAD_OF(sub),
         tuple(_issue(i) for i in sub.issues),
@@ -382,83 +369,50 @@ def pack(grade: StudentGrade) -> tuple:
         joined,
         _floats(list(map(_NUMBER, answers))),
         array("q", map(_LINE, answers)).tobytes(),
-        array("q", map(where.__getitem__, map(id, map(_ANSWER, results)))).tobytes(),
+        joined_keys,
         bytes(map(_CORRECT, results)),
         _floats(list(map(_VALUE, results))),
-        _floats(list(map(_REL, results))),
-        _floats(list(map(_ABS, results))),
-        _floats(list(map(_ERROR, results))),
-        mistakes,
-        carried,
-        _SEP.join(keys),
+        [(i, d.name) for i, d in enumerate(map(_DIAGNOSIS, results)) if d is not None],
+        [i for i, c in enumerate(map(_CARRIED, results)) if c is not None],
     )
 
 
 def unpack(data: tuple, student: Student, entries: Sequence[KeyEntry]) -> StudentGrade:
-    """The grade `pack` made, for *student* graded against *entries* (their key entries, in order)."""
-    return PackedGrade(data, student, lambda: entries).built()
-
-
-def _texts(data: tuple) -> list[str]:
-    """The texts of a grade `pack` made: six per answer (`_TEXTS`), then each result's message."""
-    return data[5].split(_SEP) if data[5] or data[4] or data[9] else []
+    """The grade `pack` made of *student*'s submission graded against *entries* (their key entries, in
+    order), graded again (`PackedGrade`; without carried credit: a grade that had some is refused)."""
+    return PackedGrade(data, student, lambda sub: grade_student(student, entries, sub)).built()
 
 
 def _answers(data: tuple) -> tuple[Answer, ...]:
     """The answers of the submission of a grade `pack` made."""
-    n, texts, numbers, lines = data[4], _texts(data), data[6], data[7]
+    n, texts, numbers, lines = data[4], data[5], data[6], data[7]
+    texts = texts.split(_SEP) if n else []
     line_numbers = array("q")
     line_numbers.frombytes(lines)
     return tuple(map(
-        Answer, texts[0 : 6 * n : 6], texts[1 : 6 * n : 6], texts[2 : 6 * n : 6], _unfloats(*numbers),
-        texts[3 : 6 * n : 6], line_numbers.tolist(), texts[4 : 6 * n : 6], texts[5 : 6 * n : 6],
+        Answer, texts[0::6], texts[1::6], texts[2::6], _unfloats(*numbers), texts[3::6], line_numbers.tolist(),
+        texts[4::6], texts[5::6],
     ))
-
-
-def _results(data: tuple, student: Student, sub: Submission, entries: Sequence[KeyEntry]) -> tuple[AnswerResult, ...]:
-    """The results of a grade `pack` made, against *entries*, answering *sub*'s answers."""
-    at, correct, value, rel, err, error, mistakes, carried, keys = data[8:]
-    which = array("q")
-    which.frombytes(at)
-    if len(which) != len(entries) or len(correct) != len(entries):
-        raise ValueError(f"expected {len(entries)} results for {student.student_id}, got {len(which)}")
-    if keys != _SEP.join(map(_KEY, entries)):
-        raise ValueError(f"expected results for {student.student_id}'s key entries, got results for other keys")
-    found: list[list[Mistake | None]] = [[None] * len(entries), [None] * len(entries)]  # diagnosis, of method
-    for i, kind, *m in mistakes:
-        found[kind][i] = Mistake(*m)
-    verdicts = [ok == 1 for ok in correct]
-    earned = [e.points if ok else 0.0 for e, ok in zip(entries, verdicts, strict=True)]
-    rebuilt = list(map(
-        AnswerResult, entries, map((*sub.answers, None).__getitem__, which.tolist()), _unfloats(*value), verdicts,
-        earned, _unfloats(*rel), _unfloats(*err), found[0], _texts(data)[6 * data[4] :], _unfloats(*error), found[1],
-    ))
-    for i, points, c in carried:  # carried-forward credit: the points and the record behind them
-        rebuilt[i] = replace(rebuilt[i], points=points, carried=c)
-    return tuple(rebuilt)
 
 
 def _columns(data: tuple) -> ResultColumns:
-    """`StudentGrade.columns` of a grade `pack` made, read from it without building its results; checks
-    that its parts agree in length."""
-    n_answers, texts, numbers, lines, at, correct, value, mistakes, carried, keys = (
-        data[4], data[5], data[6], data[7], data[8], data[9], data[10], data[14], data[15], data[16])
+    """`StudentGrade.columns` of a grade `pack` made, read from it; checks that its parts agree in length."""
+    n_answers, texts, numbers, lines, keys, correct, value, diagnosed, carried = data[4:]
     n = len(correct)
     names = keys.split(_SEP) if n else []
     values = _unfloats(*value)
-    if len(names) != n or len(values) != n or len(at) != 8 * n or correct.translate(None, b"\x00\x01"):
-        raise ValueError(f"expected {n} keys, values, answers and verdicts (0 or 1), got {len(names)} keys and "
+    if len(names) != n or len(values) != n or correct.translate(None, b"\x00\x01"):
+        raise ValueError(f"expected {n} keys, values and verdicts (0 or 1), got {len(names)} keys and "
                          f"{len(values)} values")
-    if (texts.count(_SEP) + 1 if texts or n_answers or n else 0) != 6 * n_answers + n or not (
+    if (texts.count(_SEP) + 1 if n_answers else len(texts)) != 6 * n_answers or not (
         len(numbers[0]) == len(lines) == 8 * n_answers and len(numbers[1]) in (0, n_answers)
     ):
-        raise ValueError(f"expected {n_answers} answers and {n} messages, got other lengths")
+        raise ValueError(f"expected {n_answers} answers, got texts, numbers or lines of another length")
     diagnoses: list[str | None] = [None] * n
-    for i, kind, name, *_ in mistakes:
-        if kind == 0:
-            diagnoses[i] = name
+    for i, name in diagnosed:
+        diagnoses[i] = name
     flags = [False] * n
-    for i, *_ in carried:
+    for i in carried:
         flags[i] = True
     return ResultColumns(names, values, list(map(bool, correct)), diagnoses, flags)
 
@@ -488,16 +442,18 @@ class PackedSubmission(Submission):
 class PackedGrade(StudentGrade):
     """A grade a helper process sent (`pack`), as the parent keeps it: its student, problem scores and
     messages made at once, its submission a `PackedSubmission` (answers made when read), its results'
-    columns (`columns`: all the report, copy detection and the grade table read of them) read straight
-    from the packed data, and its results only when first read (against the student's key entries, from
-    *entries* then: the parent builds none of them for the helper's students otherwise). `built` is the
-    same grade as a plain `StudentGrade`, and a copy or a pickle of it is one.
+    columns (`columns`: all the report, copy detection and the grade table read of them) read from the
+    packed data, and its results only when first read: *regrade* grades the submission again (against
+    the student's key entries, which the parent otherwise never builds for the helper's students), and
+    what it makes must pack to what was sent. `built` is the same grade as a plain `StudentGrade`, and
+    a copy or a pickle of it is one.
 
     Raises:
-        ValueError: *data* is not a grade `pack` made (its parts disagree).
+        ValueError: *data* is not a grade `pack` made (its parts disagree); when the results are first
+            read, *regrade* made another grade.
     """
 
-    def __init__(self, data: tuple, student: Student, entries: Callable[[], Sequence[KeyEntry]]) -> None:
+    def __init__(self, data: tuple, student: Student, regrade: Callable[[Submission], StudentGrade]) -> None:
         try:
             columns = _columns(data)
             submission = PackedSubmission(data)
@@ -510,12 +466,16 @@ class PackedGrade(StudentGrade):
         fields["submission"] = submission
         fields["problems"] = problems
         fields["issues"] = issues
-        fields["_packed"] = (data, entries, columns)
+        fields["_packed"] = (data, regrade, columns)
 
     @cached_property
     def results(self) -> tuple[AnswerResult, ...]:  # (kept in the instance, as the field would be)
-        data, entries, _ = self.__dict__["_packed"]
-        return _results(data, self.student, self.submission, entries())
+        data, regrade, _ = self.__dict__["_packed"]
+        again = regrade(self.submission)
+        if again.student != self.student or pack(again) != data:
+            raise ValueError(f"expected {self.student.student_id}'s submission to grade as the helper process "
+                             "graded it, got another grade (other key entries?)")
+        return again.results
 
     def columns(self) -> ResultColumns:
         return self.__dict__["_packed"][2]
