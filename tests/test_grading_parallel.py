@@ -205,3 +205,38 @@ def test_a_helper_needs_a_core_idle_now_not_a_quiet_last_minute(monkeypatch):
     assert parallel.spare_core()
     monkeypatch.setattr(parallel.os, "getloadavg", lambda: (1.6, 1.0, 1.0))
     assert not parallel.spare_core()
+
+
+@pytest.mark.skipif(not parallel.available(), reason="needs fork and two cores")
+def test_the_parent_grades_none_of_the_helpers_students_again_unless_their_results_are_read(
+    subs: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from gradekit.grading.batch import StudentKeys
+    from gradekit.grading.parallel import PackedGrade
+
+    class Entries(dict):  # every student's key entries, noting whose the parent reads
+        def get(self, sid, default=None):
+            self.read.append(sid)
+            return super().get(sid, default)
+
+    entries = Entries()
+    entries.read = []
+    for e in KEYS:
+        entries.setdefault(e.student_id, []).append(e)
+    keys = StudentKeys(entries, IDS, {e.key: e.problem for e in KEYS})
+    alone, alone_files = _run(subs, tmp_path / "alone")
+    _helper(monkeypatch, 1.0)
+    helped = grade_batch(keys, STUDENTS, subs, tmp_path / "helped", assignment_title="HW <9>",
+                         problem_titles={"p1": "Statics", "p2": "Angles"}, histogram=False)
+    sent = [g for g in helped.grades.as_made() if isinstance(g, PackedGrade)]
+    assert sent  # the helper graded some of the class
+    again = {g.student.student_id for g in sent if "results" in vars(g)}
+    assert again == {g.student.student_id for g in sent if g.submission.conflicts}  # (to count their answers)
+    named = {other for g in helped.grades.as_made() if g.submission for other in g.submission.conflicts}
+    assert named  # (a file holds another's rows: graded against both keys for its flag)
+    assert not ({g.student.student_id for g in sent} - again - named) & set(entries.read)  # others' keys never read
+    assert helped.graded == alone.graded and helped.missing == alone.missing and helped.clean == alone.clean
+    assert helped.grades == alone.grades  # built now
+    written = {p.relative_to(tmp_path / "helped").as_posix(): p.read_bytes()
+               for p in sorted((tmp_path / "helped").rglob("*")) if p.is_file()}
+    assert written == alone_files
