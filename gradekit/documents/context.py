@@ -9,7 +9,8 @@ from dataclasses import dataclass
 from gradekit import units
 from gradekit.assignment import Assignment, Item, keys_for
 from gradekit.documents import steps
-from gradekit.documents.typeset import Typ, num, paragraphs, text
+from gradekit.documents.typeset import Typ, num, paragraphs, string, text, unit
+from gradekit.documents.widths import cell, table
 from gradekit.mechanics.model import GROUND, Prismatic
 from gradekit.pipeline import CaseResult, Result
 from gradekit.report import display_unit
@@ -67,6 +68,12 @@ def build_context(asg: Assignment, student: Student, solved: list[Solved], *, ke
             "asked": [{"key": e.key, "description": e.description, "unit": e.unit,
                        "sign": e.sign_convention, "points": num(e.points, 4)} for e in entries],
         }
+        if not key:
+            p["asked_table"] = table(
+                [[Typ("Key"), Typ("Quantity"), Typ("Unit"), Typ("Sign convention"), Typ("Points")]]
+                + [[_raw(a["key"]), cell(a["description"]), unit(a["unit"]), cell(a["sign"]), a["points"]]
+                   for a in p["asked"]],
+                ["auto", "1fr", "auto", "auto", "auto"], ["left", "left", "left", "left", "right"])
         if key:
             p.update(_worked(res, entries, s.key_pictures))
         problems.append(p)
@@ -86,6 +93,10 @@ def build_context(asg: Assignment, student: Student, solved: list[Solved], *, ke
         # units the sheet prints differently from how answers.csv spells them: N·m is typed N*m
         "unit_spellings": [{"sheet": Typ(text(s)), "csv": u} for u, s in spelled.items() if s != u],
     }
+
+
+def _raw(key: str) -> Typ:
+    return Typ(f"#raw({string(key)})")
 
 
 def _source(src: dict[str, str]) -> str:
@@ -168,11 +179,23 @@ def _worked(res: Result, entries, key_pictures) -> dict:
                 "value": num(0.0 if abs(e.value) <= 1e-12 * scale[e.unit] else e.value, 5), "unit": e.unit,
                 "sign": e.sign_convention, "tolerance": e.tolerance.describe(), "points": num(e.points, 4)}
                for e in entries]
+    given_table = table(
+        [[Typ("Symbol"), Typ("Description"), Typ("Value")]]
+        + [[cell(g["symbol"]), cell(g["description"], Typ(" _(derived)_" if g["derived"] else "")), g["value"]]
+           for g in given],
+        ["auto", "1fr", "auto"], ["left", "left", "right"])
+    answers_table = table(
+        [[Typ("Key"), Typ("Quantity"), Typ("Value"), Typ("Tolerance"), Typ("Points")]]
+        + [[_raw(a["key"]), cell(a["description"], Typ(f" #text(8pt)[({text(a['sign'])})]" if a["sign"] else "")),
+            cell(Typ(f"*{a['value']}* "), unit(a["unit"])), cell(a["tolerance"]), a["points"]] for a in answers],
+        ["auto", "1fr", "auto", "auto", "auto"], ["left", "left", "right", "left", "right"])
     return {
         "given": given,
+        "given_table": given_table,
         "cases": cases,
         "key_pictures": key_pictures,
         "answers": answers,
+        "answers_table": answers_table,
         "checks": {"residual": sci(res.virtual_work_residual), "condition": sci(res.condition_number),
                    "transmission": num(res.transmission_angle, 4)},
     }
@@ -258,18 +281,36 @@ def _case(res: Result, case: CaseResult) -> dict:
                            "forces": [q(f"{row_stem(lab, j)}@{gl}.mag") for j in link.joints]})
         groups.append({"name": "total", "driver": q("driver"),
                        "forces": [q(f"{row_stem(lab, j)}.mag") for j in link.joints]})
+    group_columns = [Typ(f"$F_({_m(_pair(lab, j))})$") for j in link.joints]
+    forces_table = table(
+        [[Typ("Joint"), Typ("Force"), Typ("$x$"), Typ("$y$"), Typ("Magnitude"), Typ("Angle")]]
+        + [[cell(f["name"]), f["symbol"], f["x"], f["y"], f["mag"], f["angle"]] for f in forces],
+        ["auto"] * 6, ["right"] * 6)
+    groups_table = table(
+        [[Typ("Part"), Typ(f"${driver['symbol']}$"), *group_columns]]
+        + [[cell(g["name"]), g["driver"], *g["forces"]] for g in groups],
+        ["auto"] * (2 + len(group_columns)), ["right"] * (2 + len(group_columns))) if groups else None
+    st = _steps(res, case, display_unit(p, "N*m" if link.driver.kind == "torque" else "N"))
+    if st["matrix"] is not None:
+        mx = st["matrix"]
+        n = len(mx["columns"]) + 2
+        st["matrix"] = mx | {"table": table(
+            [[Typ(""), *mx["columns"], Typ("$b$")]] + [[r["head"], *r["cells"], r["b"]] for r in mx["rows"]],
+            ["auto"] * n, ["right"] * n, size=6.0 if n > 13 else 7.5, inset=(2.0, 2.0))}
     return {
         "name": case.name or "",
         "kinematics": kin,
         "inertia": inertia,
-        "steps": _steps(res, case, display_unit(p, "N*m" if link.driver.kind == "torque" else "N")),
+        "steps": st,
         "force_unit": p.units["force"],
         "torque_unit": p.units["torque"],
         "length_unit": p.units["length"],
         "forces": forces,
+        "forces_table": forces_table,
         "driver": driver,
         "groups": groups,
-        "group_columns": [Typ(f"$F_({_m(_pair(lab, j))})$") for j in link.joints],
+        "group_columns": group_columns,
+        "groups_table": groups_table,
         "vw_driver": quantity(*_shown(p, sol.virtual_work_driver, r["driver"][1])),
     }
 
