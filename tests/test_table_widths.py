@@ -12,6 +12,7 @@ from pathlib import Path
 import pytest
 
 import gradekit
+from gradekit.bank.registry import load_bank
 from gradekit.documents import context, widths
 from gradekit.documents.context import _case
 from gradekit.documents.typeset import Typ, available_fonts, render
@@ -38,7 +39,8 @@ def _pt(spec: str) -> list[float | None]:
 @pytest.fixture(scope="module")
 def tables(tmp_path_factory):
     """Every table of a class of two (sheets and worked keys), as `context` built them, plus the
-    six-point matrix of a six-link mechanism solved analytically (the widest the key prints)."""
+    tables of each case of every problem of the bank, and the six-point matrix of a six-link
+    mechanism solved analytically (the widest the key prints)."""
     base = tmp_path_factory.mktemp("widths")
     (base / "hw.yaml").write_text(ASSIGNMENT, encoding="utf-8")
     (base / "roster.csv").write_text("student_id,name\n1001,Ana\n1002,Zoë Łukasiewicz\n", encoding="utf-8")
@@ -56,9 +58,11 @@ def tables(tmp_path_factory):
         text = (ROOT / "problem_bank" / "s003_whitworth.yaml").read_text(encoding="utf-8")
         wide = base / "whitworth.yaml"
         wide.write_text(text.replace("method: graphical", "method: analytical"), encoding="utf-8")
-        res = gradekit.solve(gradekit.sample(gradekit.load_problem(wide), seed=3))
-        for case in res.cases:
-            _case(res, case)
+        bank = load_bank(ROOT / "problem_bank")
+        for problem in [gradekit.load_problem(wide), *(bank[pid] for pid in sorted(bank))]:
+            res = gradekit.solve(problem)  # at its published values
+            for case in res.cases:
+                _case(res, case)
     finally:
         mp.undo()
     return made

@@ -1,11 +1,13 @@
-"""Fixed column widths and row heights for the documents' tables, measured through Typst once a process.
+"""Fixed column widths and row heights for the documents' tables, measured through Typst and kept for the process.
 
 Why: with ``auto`` columns and rows Typst lays each table cell out three times (to size its column,
 to size its row, then for good), and a worked key is mostly tables: giving every table the widths
-and heights it would get anyway saves about a fifth of a key's compile (benchmarks/RESULTS.md,
-"Typst: where a worked key's compile goes"). Python cannot measure the text itself (Libertinus
-Serif is embedded in Typst, no font file), so each cell is measured by Typst, in a small document
-that starts with the documents' own set rules (templates/_style.typ.j2), and remembered.
+and heights it would get anyway takes about a fifth of a key's compile off and a quarter of a
+sheet's, in instructions (benchmarks/RESULTS.md, "Typst: where a worked key's compile goes").
+Python cannot measure the text itself (Libertinus Serif is embedded in Typst, no font file), so
+each cell is measured by Typst, in a small document that starts with the documents' own set rules
+(templates/_style.typ.j2), and remembered; a document's tables are measured together, when the
+template first prints one of them (one query for all their new cells, usually none or a few).
 
 What is measured is a cell's *shape*: its markup with each digit of its text written 0. The body
 font's figures are tabular (every digit the same advance), and a digit kerns with its neighbours as
