@@ -165,5 +165,6 @@ def test_a_digit_that_kerns_differently_is_measured_as_it_is(monkeypatch):
     assert (style, "0.0") in m.sizes_of and (style, "1.5") not in m.sizes_of
     m.checked[(style, False, ".")] = False  # as if "1." kerned unlike "0."
     m.ok.clear()
+    m.key_of.clear()
     m.sizes([(style, "7.5")])
     assert (style, "7.5") in m.sizes_of

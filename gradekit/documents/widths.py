@@ -101,6 +101,7 @@ class Table:
 
 _PENDING: list[Table] = []
 _BATCH = 200  # tables measured together at most (a document has a few dozen)
+_KEYS_KEPT = 100_000  # cells whose shape is remembered (a student brings a few hundred new ones)
 
 
 def cell(*parts: Typ | str | int) -> Typ:
@@ -240,6 +241,7 @@ class _Measurer:
         self.sizes_of: dict[tuple[str, str], tuple[float, float] | None] = {}
         self.checked: dict[tuple[str, bool, str], bool] = {}  # digits kern as 0 with this neighbour
         self.ok: dict[tuple[str, frozenset], bool] = {}  # ... with all these
+        self.key_of: dict[tuple[str, str], tuple[str, str]] = {}  # (style, markup) -> (style, shape)
         self.text_width = 0.0
         self._compiler = None
         self._folder = ""
@@ -247,20 +249,25 @@ class _Measurer:
 
     def sizes(self, cells: list[tuple[str, str]]) -> list[tuple[float, float] | None]:
         """(width, height) in pt of each (style, markup) of *cells*; None for one not measured."""
-        shaped = [(style, shape(markup), markup) for style, markup in cells]
-        new = {(style, needs) for style, (_, needs), _ in shaped if needs and (style, needs) not in self.ok}
-        if new:
+        fresh = {c for c in cells if c not in self.key_of}
+        if fresh:
+            if len(self.key_of) > _KEYS_KEPT:
+                self.key_of.clear()
+            shaped = {c: shape(c[1]) for c in fresh}
+            new = {(style, needs) for (style, _), (_, needs) in shaped.items()
+                   if needs and (style, needs) not in self.ok}
             checks = {(style, *need) for style, needs in new for need in needs} - self.checked.keys()
             if checks:
                 self._measure([], sorted(checks))
             for style, needs in new:
                 self.ok[(style, needs)] = all(self.checked[(style, *need)] for need in needs)
-        keys = [(style, s) if not needs or self.ok[(style, needs)] else (style, markup)  # else: as it is
-                for style, (s, needs), markup in shaped]
-        todo = set(keys) - self.sizes_of.keys()
-        if todo:
-            self._measure(sorted(todo), [])
-        return [self.sizes_of[k] for k in keys]
+            for (style, markup), (s, needs) in shaped.items():
+                ok = not needs or self.ok[(style, needs)]  # else a digit kerns unlike 0: as it is
+                self.key_of[(style, markup)] = (style, s if ok else markup)
+            todo = {self.key_of[c] for c in fresh} - self.sizes_of.keys()
+            if todo:
+                self._measure(sorted(todo), [])
+        return [self.sizes_of[self.key_of[c]] for c in cells]
 
     def _measure(self, cells: list[tuple[str, str]], checks: list[tuple[str, bool, str]]) -> None:
         items = [f"{style}[{s}]" for style, s in cells]
