@@ -123,18 +123,44 @@ class ProblemScore:
     max_points: float
 
 
-@dataclass(frozen=True)
 class ResultColumns:
     """What the passes over a whole class (the report's item analysis, copy detection, the carried
-    count) read of one grade's results, as columns, one item a result in order: its answer key, its
-    value (None: no value), its verdict, the name of its diagnosis (None: none) and whether it was
-    carried forward."""
+    count) read of one grade's results, as columns, one item a result in order: ``keys`` (answer
+    keys), ``values`` (None: no value), ``correct`` (verdicts), ``diagnoses`` (the name of each
+    diagnosis, None: none) and ``carried`` (carried forward). Equal to another with the same columns.
+    """
 
-    keys: Sequence[str]
-    values: Sequence[float | None]
-    correct: Sequence[bool]
-    diagnoses: Sequence[str | None]
-    carried: Sequence[bool]
+    _NAMES = ("keys", "values", "correct", "diagnoses", "carried")
+
+    def __init__(
+        self, keys: Sequence[str], values: Sequence[float | None], correct: Sequence[bool],
+        diagnoses: Sequence[str | None], carried: Sequence[bool],
+    ) -> None:
+        self.keys, self.values, self.correct, self.diagnoses, self.carried = keys, values, correct, diagnoses, carried
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, ResultColumns):
+            return NotImplemented
+        return all(list(getattr(self, n)) == list(getattr(other, n)) for n in self._NAMES)
+
+    __hash__ = None  # (mutable lists)
+
+    def __repr__(self) -> str:
+        return f"ResultColumns({', '.join(f'{n}={getattr(self, n)!r}' for n in self._NAMES)})"
+
+
+class _ColumnsOf(ResultColumns):
+    """`ResultColumns` of built results, each column made as it is read (a pass reads each once; copy
+    detection reads three)."""
+
+    def __init__(self, results: Sequence[AnswerResult]) -> None:
+        self._results = results
+
+    keys = property(lambda self: list(map(_KEY_OF, self._results)))
+    values = property(lambda self: list(map(_VALUE_OF, self._results)))
+    correct = property(lambda self: list(map(_CORRECT_OF, self._results)))
+    diagnoses = property(lambda self: [None if d is None else d.name for d in map(_DIAGNOSIS_OF, self._results)])
+    carried = property(lambda self: [c is not None for c in map(_CARRIED_OF, self._results)])
 
 
 _KEY_OF, _VALUE_OF, _CORRECT_OF = attrgetter("entry.key"), attrgetter("value"), attrgetter("correct")
@@ -169,14 +195,7 @@ class StudentGrade:
     def columns(self) -> ResultColumns:
         """The results as columns (`ResultColumns`): what a pass over the class reads. A grade a helper
         process sent (`gradekit.grading.parallel.PackedGrade`) has them without building its results."""
-        results = self.results
-        return ResultColumns(
-            list(map(_KEY_OF, results)),
-            list(map(_VALUE_OF, results)),
-            list(map(_CORRECT_OF, results)),
-            [None if d is None else d.name for d in map(_DIAGNOSIS_OF, results)],
-            [c is not None for c in map(_CARRIED_OF, results)],
-        )
+        return _ColumnsOf(self.results)
 
 
 _DEGREES = ("deg", "degree", "degrees", "°")

@@ -9,6 +9,8 @@ import statistics
 from collections import Counter
 from collections.abc import Mapping, Sequence
 from functools import lru_cache
+from itertools import chain, compress, repeat
+from operator import is_, is_not
 from pathlib import Path
 
 from gradekit.csvsafe import atomic_write, write_csv
@@ -491,20 +493,18 @@ def report_markdown(
         "| Answer | Right | Answered | Most common mistakes |",
         "|---|---|---|---|",
     ]
-    stats: dict[str, list] = {}  # key -> [results, right, unanswered, mistake names]: one pass over the class
-    for g in submitted:
-        c = g.columns()
-        for key, correct, value, diagnosis in zip(c.keys, c.correct, c.values, c.diagnoses, strict=True):
-            row = stats.get(key)
-            if row is None:
-                row = stats[key] = [0, 0, 0, []]
-            row[0] += 1
-            if correct:
-                row[1] += 1
-            if value is None:
-                row[2] += 1
-            if diagnosis is not None:
-                row[3].append(diagnosis)
+    # per answer key, one pass over the class's columns each (counted in C): results, right, unanswered,
+    # and the names of the mistakes diagnosed in the order met
+    columns = [g.columns() for g in submitted]
+    keys = list(chain.from_iterable(c.keys for c in columns))
+    totals = Counter(keys)  # (in the order the keys are first met)
+    rights = Counter(compress(keys, chain.from_iterable(c.correct for c in columns)))
+    blanks = Counter(compress(keys, map(is_, chain.from_iterable(c.values for c in columns), repeat(None))))
+    diagnoses = list(chain.from_iterable(c.diagnoses for c in columns))
+    mistakes: dict[str, list[str]] = {}
+    for key, name in compress(zip(keys, diagnoses, strict=True), map(is_not, diagnoses, repeat(None))):
+        mistakes.setdefault(key, []).append(name)
+    stats = {key: (total, rights[key], blanks[key], mistakes.get(key, ())) for key, total in totals.items()}
     for key, (total, right, unanswered, names) in stats.items():
         common = ", ".join(f"{name} ({n})" for name, n in Counter(names).most_common(3)) or "–"
         share = 100.0 * right / total

@@ -391,10 +391,11 @@ def find_copies(
     # every result as columns (student row, answer, value, wrong for them), then those with a finite value
     # of an answer of the keys
     columns = [g.columns() for g in subs]
-    lengths = [len(c.keys) for c in columns]
+    keys_of = list(map(_KEYS, columns))  # (each column read once: a built grade's are made as they are read)
+    lengths = list(map(len, keys_of))
     n = sum(lengths)
     g_row = np.repeat(np.arange(n_sub), lengths)
-    g_key = np.fromiter(map(aid.get, chain.from_iterable(map(_KEYS, columns)), repeat(-1)), np.int64, n)
+    g_key = np.fromiter(map(aid.get, chain.from_iterable(keys_of), repeat(-1)), np.int64, n)
     g_x = np.array(list(chain.from_iterable(map(_VALUES, columns))), dtype=float)  # None (no value) as NaN
     g_wrong = ~np.fromiter(chain.from_iterable(map(_CORRECTS, columns)), bool, n)
     own = np.bincount(g_row[~g_wrong], minlength=n_sub).tolist()  # each one's right answers
