@@ -1,5 +1,6 @@
 """What a worked key's Typst compile spends its work on: the same real keys compiled as they are and
-with one thing changed (tables left out, math as text, PDF tags off, fixed column widths, ...).
+with one thing changed (tables left out, their computed widths given back to Typst as auto, math as
+text, PDF tags off, figures as empty boxes, ...).
 
 The bodies are the ones `generate` writes for examples/hw5.yaml (captured from a class of 6, with
 their figures). Each variant compiles one sheet and one key as they are to warm the compiler (fonts), then
@@ -27,28 +28,26 @@ ROOT = Path(__file__).resolve().parents[1]
 KEYS = (3, 5, 7)  # the measured keys: sources 1, 3, 5, ... are keys, 0, 2, ... sheets
 
 
-def _strip_tables(s: str, columns: str) -> str:
-    return s.replace(f"#table(columns: {columns},", f"#let _t = table(columns: {columns},")
-
-
 def _as_text(formula: re.Match) -> str:
     return '#"' + formula.group(1).replace('"', "").replace("\\", "") + '"'
 
 
+def _auto(table: re.Match, rows_too: bool = True) -> str:
+    """A table's computed widths (and row heights) given back to Typst as ``auto``: what
+    `gradekit.documents.widths` saves (the ``1fr`` columns stay)."""
+    columns = ", ".join("1fr" if c.strip() == "1fr" else "auto" for c in table.group(1).split(",") if c.strip())
+    return f"columns: ({columns},), rows: {'auto' if rows_too else '(' + table.group(2) + ')'},"
+
+
+_SIZED = re.compile(r"columns: \(([^)]*)\), rows: \(([^)]*)\),")
+
 VARIANTS = {
     "as-is": lambda s: s,
     "no-tables": lambda s: re.sub(r"#table\(", "#let _t = table(", s),
-    "no-answers-tables": lambda s: _strip_tables(s, "(auto, 1fr, auto, auto, auto)"),
-    "no-given-tables": lambda s: _strip_tables(s, "(auto, 1fr, auto)"),
-    "no-force-tables": lambda s: _strip_tables(s, "6"),
-    "no-matrix-tables": lambda s: re.sub(r"#table\(columns: (1\d|[7-9]),", r"#let _t = table(columns: \1,", s),
+    "auto-widths-and-rows": lambda s: _SIZED.sub(_auto, s),
+    "auto-widths": lambda s: _SIZED.sub(lambda m: _auto(m, rows_too=False), s),
     "math-as-text": lambda s: re.sub(r"\$([^$]*)\$", _as_text, s),
     "pdf-tags-off": lambda s: s,  # the compile option, below
-    "fixed-widths": lambda s: re.sub(
-        r"columns: (\d+),", lambda m: "columns: (" + "4.2em, " * int(m.group(1)) + "),", s
-    ).replace("#table(columns: (auto, 1fr, auto, auto, auto),", "#table(columns: (6em, 1fr, 8em, 9em, 3em),")
-    .replace("#table(columns: (auto, 1fr, auto),", "#table(columns: (4em, 1fr, 6em),"),
-    "fixed-rows": lambda s: re.sub(r"columns: (\d+),", lambda m: m.group(0) + " rows: 1.5em,", s),
     "no-header-footer": lambda s: re.sub(r"header: context \{.*?\} \},\n", "", s, flags=re.S).replace(
         "footer: context { set text(8pt, fill: luma(90)); h(1fr); [Page #counter(page).display()]; h(1fr) })", ")"),
     "boxed-math": lambda s: re.sub(r"(?<!\\)\$([^$]*)\$", lambda m: "#box($" + m.group(1) + "$)", s),
