@@ -63,8 +63,8 @@ def loads(text: str | bytes, path: str) -> FrozenKeys:
     (or its UTF-8 bytes).
 
     Parsed by orjson: the same values as the standard library's `json` (the file holds objects,
-    arrays, strings and finite floats only, as `dumps` writes it) in a quarter of the time, which
-    at 3,000 students is 0.15 s of `grade`'s serial start (RESULTS: Grading throughput).
+    arrays, strings and finite floats only, as `dumps` writes it) in a quarter of the time: the
+    12 MB of 3,000 students in 52 against 205 ms (2026-11-24), of `grade`'s serial start.
 
     The text is parsed and what is the same for the class is read here; each student's entries are
     built on first access (`FrozenKeys`), so that a forked helper process builds those of the students
