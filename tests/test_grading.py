@@ -184,7 +184,9 @@ def test_outputs_are_written_and_lms_imports_have_standard_columns(batch) -> Non
     result, out, _ = batch
     canvas = rows(out / "canvas.csv")
     assert canvas[0] == ["Student", "ID", "SIS User ID", "SIS Login ID", "Section", "HW 3"]
-    assert canvas[1] == ["Lee, Ada", "", "1001", "", "", "4"]
+    assert canvas[1] == ["Ada Lee", "", "1001", "", "", "4"]  # the name as the roster gives it, never cut
+    ivy = next(r for r in canvas if r[2] == "1009")
+    assert ivy[1] == "1009"  # the Canvas user id in the name Canvas gave her file (ivy_jones_1009_67890_…)
     moodle = rows(out / "moodle.csv")
     assert moodle[0] == ["ID number", "Email address", "HW 3"]
     assert moodle[5] == ["1005", "1005@uni.edu", "2"]

@@ -103,43 +103,55 @@ def test_compare_and_diagnose(raw: str, unit: str, correct: bool, diagnosis: str
 
 
 @pytest.mark.parametrize(
-    ("raw", "raw_unit", "unit"),
-    [("1.12", "", ""), ("1.125", "N*m", "N*m"), ("1120", "N*mm", "N*mm"), ("9.91", "lbf*in", "lbf*in"),
-     ("1.12", "N·m", "N*m"), ("1.1200", "", ""), ("1.12|", "", "")],
-)
-def test_a_right_answers_fast_feedback_row_is_the_general_one(raw: str, raw_unit: str, unit: str) -> None:
-    """Right answers (most rows) are written by a fast path; it must print what the general path
-    prints from `_answer_cells`, in Markdown and in HTML."""
-    from gradekit.grading import exports
-
-    answer = Answer("p1.T", raw, raw_unit, float(raw.rstrip("|")), unit, 2)
-    result = compare(ENTRY, answer)
-    assert result.correct
-    assert exports._right_rows(result, answer) == exports._any_rows(result, False, "")
-
-
-@pytest.mark.parametrize(
     ("key", "key_unit", "raw", "raw_unit", "unit", "points"),
     [
         ("p1.T_<a>|b", "N*m", "1120", "N*mm", "N*mm", 2.0),  # escaped key, converted value
-        ("p1.T_<a>|b", "N*m", "1120", "N*mm", "N*mm", 2.0),  # again: the parts made once, reused
         ("p2.x", "kN", "1.5", "", "", 1.5),  # no unit given
-        ("p2.x", "kN", "1500", "N", "N", 1.5),  # converted, no brackets to escape
         ("p2.x", "kN", "1.5e0", "[kN]", "kN", 0.25),  # a value the formatter rewrites; a bracketed unit
         ("p3.&'\"", "deg", "30", "°", "deg", 1),  # HTML escapes in the key; a written degree sign
     ],
 )
-def test_the_parts_of_right_rows_made_once_per_answer_give_the_general_rows(
+def test_a_feedback_row_is_one_set_of_cells_escaped_for_markdown_and_html(
     key: str, key_unit: str, raw: str, raw_unit: str, unit: str, points: float
 ) -> None:
-    from gradekit.grading import exports
+    """Markdown and HTML show the same cells: unescaping each row gives the row's plain cells."""
+    import html
+    import re
 
-    value = float(raw) * {"N*mm": 1e-3, "N": 1e-3}.get(unit, 1.0)
+    from gradekit.grading.feedback import feedback_row, html_row, markdown_row
+    from gradekit.numbers import fmt
+
+    value = float(raw) * {"N*mm": 1e-3}.get(unit, 1.0)
     entry = KeyEntry("1", "p1", key, value, key_unit, Tolerance(rel=0.01), points)
-    answer = Answer(key, raw, raw_unit, float(raw), unit, 2)
-    result = compare(entry, answer)
-    assert result.correct
-    assert exports._right_rows(result, answer) == exports._any_rows(result, False, "")
+    row = feedback_row(compare(entry, Answer(key, raw, raw_unit, float(raw), unit, 2)), reveal=False)
+    assert row.verdict == "right" and row.cells[0] == key and row.cells[3] == "right"
+    assert row.cells[2].startswith(fmt(float(raw), 6))  # the value as read, through the one formatter
+    assert row.cells[1] == raw + (f" [{raw_unit}]" if raw_unit else "")
+    md = markdown_row(row)
+    md_cells = [re.sub(r"\\(.)", r"\1", c) for c in re.split(r"(?<!\\) \| ", md[2:-2])]
+    assert md_cells == list(row.cells)
+    page = html_row(row)
+    assert page.startswith('<tr class="right"><td>') and page.endswith("</td></tr>")
+    assert [html.unescape(c) for c in page[len('<tr class="right"><td>'):-len("</td></tr>")].split("</td><td>")] == \
+        list(row.cells)
+
+
+def test_feedback_names_the_file_as_submitted_never_the_instructors_path(tmp_path: Path) -> None:
+    from gradekit.grading.compare import grade_student
+    from gradekit.grading.reader import Issue, Submission
+    from gradekit.roster import Student
+
+    path = str(tmp_path / "Selam Haile_4242_assignsubmission_file_" / "answers.csv")
+    sub = Submission(path, "1", (Answer("p1.T", "1.12", "", 1.12, "", 2),),
+                     issues=(Issue(path, 3, "value", "expected a number, got x"),))
+    grade = grade_student(Student("1", "Selam Haile"), [ENTRY], sub)
+    for text in (feedback_markdown(grade, {}, "HW", reveal=False), feedback_html(grade, {}, "HW", reveal=False)):
+        assert str(tmp_path) not in text
+        assert "answers.csv:3: value: expected a number, got x" in text
+    assert "Graded file: answers.csv" in feedback_markdown(grade, {}, "HW", reveal=False)
+    canvas = Submission(str(tmp_path / "hailesela_late_77_88_answers-1.csv"), "1", ())
+    page = feedback_html(grade_student(Student("1", "Selam Haile"), [ENTRY], canvas), {}, "HW", reveal=False)
+    assert "Graded file: <code>answers-1.csv</code>" in page and str(tmp_path) not in page
 
 
 def test_entry_mistakes_take_precedence_over_generic_ones() -> None:
@@ -175,17 +187,3 @@ def test_angle_error_is_wrapped_degrees_never_relative() -> None:
     plain = KeyEntry("1", "p1", "p1.th", 337.4, "deg", Tolerance("relative", rel=0.001))  # no period given
     r = compare(plain, Answer("p1.th", "-20.6", "", -20.6, "", 3))
     assert r.rel_error is None and r.abs_error == pytest.approx(2.0)
-
-
-@pytest.mark.parametrize(
-    "raw",
-    ["40.77", "-1.015", "0.000123", "123456", "1234000", "999999", "9.99999", "0.001", "123456000000000", "0",
-     "-0", "0.0", "1.0", "+1", "007", ".5", "5.", "1.234567", "1e3", "1234567", "1234560000000000", "-0.5"],
-)
-def test_a_number_as_read_is_what_the_formatter_prints(raw: str) -> None:
-    """Feedback shows a plain decimal of up to 6 significant figures as written, skipping the
-    formatter: it must be exactly what fmt(value, 6) prints, and anything else goes through it."""
-    from gradekit.grading.exports import _as_read
-    from gradekit.numbers import fmt
-
-    assert _as_read(raw, float(raw)) == fmt(float(raw), 6)

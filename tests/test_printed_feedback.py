@@ -114,7 +114,7 @@ def test_lms_exports_keep_every_name_on_one_line(graded):
                 assert not re.search(r"[\x00-\x1f\x7f]", cell), (name, cell)
     canvas = list(csv.DictReader((out / "canvas.csv").open(encoding="utf-8")))
     bea = next(r for r in canvas if r["SIS User ID"] == "b2")
-    assert bea["Student"] == "Tab, Bea Newline" and bea["Section"] == "A B"
+    assert bea["Student"] == "Bea Newline Tab" and bea["Section"] == "A B"
 
 
 def test_histogram_counts_perfect_scores(graded, tmp_path):

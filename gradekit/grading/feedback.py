@@ -1,0 +1,216 @@
+"""Each student's feedback: one row of plain-text cells per answer, written as Markdown and as an HTML page."""
+
+from __future__ import annotations
+
+import html
+import math
+import re
+from collections.abc import Mapping
+from dataclasses import dataclass, replace
+
+from gradekit.grading.compare import AnswerResult, StudentGrade
+from gradekit.grading.lms import submitted_name
+from gradekit.numbers import fmt as report_fmt
+from gradekit.units import pretty
+
+
+def fmt(value: float | None, digits: int = 4) -> str:
+    """A number for people: `gradekit.numbers.fmt` (the one formatter) at 4 significant figures; None is blank."""
+    return "" if value is None else report_fmt(value, digits)
+
+
+def credit_text(credit: float) -> str:
+    """``full credit`` or ``credit 50 %`` (a carried answer's share of its points)."""
+    return "full credit" if credit >= 1.0 - 1e-9 else f"credit {100 * credit:.3g} %"
+
+
+GENERIC_HINT = "check the sign convention, the units and the component asked"
+UNNAMED_NOTE = (
+    "Likely mistake names only a mistake of method (a static answer to a dynamic problem, the inertia "
+    "torque or gravity left out); any other wrong answer reads \"" + GENERIC_HINT + "\", since naming a "
+    "slip of sign, unit or component would give your key away."
+)
+HINTS = ("direction", "band")  # what feedback without --reveal says about a wrong answer
+
+COLUMNS = ("Answer", "You wrote", "Read as", "Verdict", "Off by", "Likely mistake", "Points")
+_CSS_CLASS = {"right": "right", "wrong": "wrong", "not graded": "not", "carried forward": "carried"}
+
+
+@dataclass(frozen=True)
+class FeedbackRow:
+    """One answer's feedback row as plain text: its cells in `COLUMNS` order (then the correct
+    answer with --reveal) and its verdict (``right``, ``wrong``, ``not graded``, ``carried
+    forward``). Markdown and HTML escape the same cells."""
+
+    cells: tuple[str, ...]
+    verdict: str
+
+
+def feedback_row(r: AnswerResult, reveal: bool, hint: str = "direction") -> FeedbackRow:
+    """The feedback row of one answer (see `FeedbackRow`)."""
+    entry, answer = r.entry, r.answer
+    unit = pretty(entry.unit)
+    read = ""
+    if answer is not None:
+        read = answer.raw + (f" [{answer.raw_unit}]" if answer.raw_unit else "")
+    if r.value is not None and answer is not None:
+        given = pretty(answer.unit) if answer.unit else f"{unit} (no unit given)"
+        parsed = f"{fmt(answer.number, 6)} {given}".strip()
+        if answer.unit and answer.unit != entry.unit:
+            parsed += f" = {fmt(r.value, 6)} {unit}"
+    else:
+        parsed = r.message
+    if r.correct:
+        verdict = "right"
+    elif r.value is None:
+        verdict = "not graded"
+    elif r.carried is not None:
+        verdict = "carried forward"
+    else:
+        verdict = "wrong"
+    off = _off(r, unit, reveal, hint) if not r.correct and r.error is not None else ""
+    if r.carried is not None:  # the student's own values only: safe without --reveal
+        share = r.points / entry.points if entry.points else 1.0
+        diagnosis = f"{r.carried.describe()}; carried forward ({credit_text(share)})"
+    else:
+        diagnosis = _likely(r, reveal, verdict == "wrong")
+    cells = (entry.key, read, parsed, verdict, off, diagnosis, f"{fmt(r.points)}/{fmt(entry.points)}")
+    if reveal:
+        cells += (f"{fmt(entry.value, 6)} {unit} ({entry.tolerance.describe()})",)
+    return FeedbackRow(cells, verdict)
+
+
+def _likely(r: AnswerResult, reveal: bool, wrong: bool) -> str:
+    """The Likely mistake cell: any catalogued mistake with *reveal*; without, a mistake of method
+    (`METHOD_MISTAKES`) or, for every other wrong answer alike, `GENERIC_HINT`.
+
+    A sign flip, a unit slip, x and y swapped or the magnitude for a component is a fixed
+    transformation of the key: naming it would let the student compute their key from their answer.
+    """
+    m = r.diagnosis if reveal else r.method_diagnosis
+    if m is not None:
+        return f"{m.name}: {m.description}"
+    return GENERIC_HINT if wrong and not reveal else ""
+
+
+def _off(r: AnswerResult, unit: str, reveal: bool, hint: str = "direction") -> str:
+    """How far off a wrong answer is, without handing a student their key unless *reveal*.
+
+    An angle's difference is in degrees, wrapped at 360° (never a percentage of the angle).
+    Without *reveal*: the direction ("too high") and that it is outside the tolerance, and with
+    *hint* ``band`` a coarse band in multiples of the tolerance; never a signed amount, which
+    would let the student back out the key value.
+    """
+    if r.error is None or r.abs_error is None or r.correct:
+        return ""
+    degrees = r.angle and unit in ("rad",)
+    amount = r.abs_error * (180.0 / math.pi if degrees else 1.0)
+    if not reveal:
+        way = (f"too far {'counterclockwise' if r.error > 0 else 'clockwise'}" if r.angle
+               else f"too {'high' if r.error > 0 else 'low'}")
+        band = r.entry.tolerance.band(r.entry.value)
+        if hint == "band" and band > 0:
+            times = r.abs_error / band
+            coarse = ("within twice the tolerance" if times <= 2 else "2 to 10 times the tolerance away"
+                      if times <= 10 else "more than 10 times the tolerance away")
+            return f"{way}, {coarse}"
+        return f"{way}, outside the tolerance"
+    if r.angle:
+        return f"{fmt(amount, 3)}° {'counterclockwise' if r.error > 0 else 'clockwise'} (wrapped at 360°)"
+    if r.rel_error is not None:
+        return f"{'+' if r.error > 0 else '−'}{100 * r.rel_error:.3g} %"
+    return f"{'+' if r.error > 0 else '−'}{fmt(r.abs_error)} {unit}"
+
+
+_MD_ESCAPE = re.compile(r"([`*_<>\[\]])")
+
+
+def md_cell(text: str) -> str:
+    """*text* as inline Markdown that shows as written (a table cell, a heading, a list item)."""
+    text = text.replace("\\", "\\\\").replace("|", "\\|").replace("\n", " ").replace("\r", " ")
+    return _MD_ESCAPE.sub(r"\\\1", text)
+
+
+def markdown_row(row: FeedbackRow) -> str:
+    """A feedback row as a Markdown table row."""
+    return "| " + " | ".join(map(md_cell, row.cells)) + " |"
+
+
+def html_row(row: FeedbackRow) -> str:
+    """A feedback row as an HTML table row, its class the verdict's."""
+    return f'<tr class="{_CSS_CLASS[row.verdict]}"><td>' + "</td><td>".join(map(html.escape, row.cells)) + "</td></tr>"
+
+
+_CSS = (
+    "body{font-family:sans-serif;max-width:60em;margin:2em auto}"
+    "table{border-collapse:collapse}td,th{border:1px solid #bbb;padding:.2em .5em}"
+    ".right{background:#e6f4e6}.wrong{background:#fbe9e9}.not{background:#f3f3f3}.carried{background:#fdf5dc}"
+)
+
+
+def feedback_pages(
+    grade: StudentGrade, titles: Mapping[str, str], assignment_title: str, reveal: bool, hint: str = "direction"
+) -> tuple[str, str]:
+    """One student's feedback as (Markdown, standalone HTML page), both from one `feedback_row` per
+    answer; every text is escaped (students wrote some of it). The graded file is named as the
+    student uploaded it, never by its path on the instructor's disk."""
+    e = html.escape
+    columns = COLUMNS + (("Correct answer",) if reveal else ())
+    md_head = "| " + " | ".join(columns) + " |"
+    md_rule = "|" + "---|" * len(columns)
+    html_head = "<table><tr>" + "".join(f"<th>{e(t)}</th>" for t in columns) + "</tr>"
+    s = grade.student
+    score = f"Score: {fmt(grade.total)} / {fmt(grade.max_points)} ({grade.percent:.1f} %)"
+    title = f"{assignment_title}: feedback for {s.display} ({s.student_id})"
+    md = [
+        f"# {md_cell(assignment_title)}: feedback for {md_cell(s.display)} ({md_cell(s.student_id)})",
+        "",
+        f"**{score}**",
+        "",
+    ]
+    page = [
+        "<!doctype html>",
+        '<html><head><meta charset="utf-8">',
+        f"<title>{e(title)}</title><style>{_CSS}</style></head><body>",
+        f"<h1>{e(title)}</h1>",
+        f"<p><strong>{score}</strong></p>",
+    ]
+    if grade.submission is None:
+        md += ["No submission was found for you.", ""]
+        page.append("<p>No submission was found for you.</p>")
+    else:
+        name = submitted_name(grade.submission.path)
+        md += [f"Graded file: {md_cell(name)}", ""]
+        page.append(f"<p>Graded file: <code>{e(name)}</code></p>")
+        if not reveal:
+            md += [md_cell(UNNAMED_NOTE), ""]
+            page.append(f"<p>{e(UNNAMED_NOTE)}</p>")
+    rows: dict[str, list[FeedbackRow]] = {}
+    for r in grade.results:
+        rows.setdefault(r.entry.problem, []).append(feedback_row(r, reveal, hint))
+    for problem in grade.problems:
+        name = titles.get(problem.problem, problem.problem)
+        earned = f"{fmt(problem.points)} / {fmt(problem.max_points)}"
+        mine = rows.get(problem.problem, [])
+        md += [f"## {md_cell(name)}: {earned}", "", md_head, md_rule, *map(markdown_row, mine), ""]
+        page += [f"<h2>{e(name)}: {earned}</h2>", html_head, *map(html_row, mine), "</table>"]
+    if grade.issues:
+        issues = [str(replace(i, path=submitted_name(i.path))) for i in grade.issues]
+        md += ["## Problems reading your file", "", *(f"- {md_cell(i)}" for i in issues), ""]
+        page += ["<h2>Problems reading your file</h2><ul>", *(f"<li><code>{e(i)}</code></li>" for i in issues), "</ul>"]
+    page.append("</body></html>")
+    return "\n".join(md), "\n".join(page)
+
+
+def feedback_markdown(
+    grade: StudentGrade, titles: Mapping[str, str], assignment_title: str, reveal: bool, hint: str = "direction"
+) -> str:
+    """One student's feedback as Markdown (every cell escaped: students wrote some of it)."""
+    return feedback_pages(grade, titles, assignment_title, reveal, hint)[0]
+
+
+def feedback_html(
+    grade: StudentGrade, titles: Mapping[str, str], assignment_title: str, reveal: bool, hint: str = "direction"
+) -> str:
+    """One student's feedback as a standalone HTML page (every text escaped)."""
+    return feedback_pages(grade, titles, assignment_title, reveal, hint)[1]
