@@ -76,8 +76,11 @@ def read_roster(path: Path) -> list[Student]:
     Plain: ``student_id,name[,email][,section]`` with a header (any case/spacing) or without.
     Canvas: ``Student, ID, SIS User ID, SIS Login ID, Section`` (the id is the SIS User ID,
     falling back to ``ID``; the "Points Possible" row and other rows without a student are
-    skipped; ``Last, First`` becomes ``First Last``). Moodle: ``First name, Surname, ID number,
-    Email address`` (the id is the ID number). UTF-8 with or without BOM, UTF-16, cp1252.
+    skipped; ``Last, First`` becomes ``First Last``; ``ID`` is kept as ``lms_id``). Moodle's
+    gradebook export: ``First name, Last name`` (or ``Surname``), ``ID number``, ``Email address``
+    (the id is the ID number, else the email address on a site without ID numbers). Moodle's
+    grading worksheet: ``Identifier`` (``Participant 12345``, kept as ``lms_id``), ``Full name``,
+    ``ID number`` if shown, ``Email address``. UTF-8 with or without BOM, UTF-16, cp1252.
 
     Args:
         path: the roster file.
@@ -109,6 +112,8 @@ def read_roster(path: Path) -> list[Student]:
     header = [header_key(c) for c in numbered[0][1]]
     if "student" in header and ("sis_user_id" in header or "id" in header):
         layout, rows_, id_field, width = _canvas(header), numbered[1:], "SIS User ID", None
+    elif "identifier" in header and "full_name" in header:
+        layout, rows_, id_field, width = _moodle_worksheet(header), numbered[1:], "ID number", None
     elif ("first_name" in header or "firstname" in header) and (
         "surname" in header or "last_name" in header or "lastname" in header
     ):
@@ -194,9 +199,55 @@ def _moodle(header: list[str]) -> Layout:
     def layout(row: list[str]) -> dict[str, str]:
         fields = {f: _cell(row, i) for f, i in col.items()}
         fields["name"] = f"{fields.pop('first')} {fields.pop('last')}".strip()
+        fields["student_id"] = fields["student_id"] or fields["email"]  # a site without ID numbers: by email
         return fields
 
     return layout
+
+
+def _moodle_worksheet(header: list[str]) -> Layout:
+    """Moodle's offline grading worksheet: ``Identifier`` (``Participant 12345``: the participant id
+    Moodle's downloads and feedback zips name), ``Full name``, ``ID number`` when the site shows it,
+    ``Email address``."""
+    ident, name = _find(header, ("identifier",)), _find(header, ("full_name",))
+    number, email = _find(header, ("id_number", "idnumber")), _find(header, ("email_address", "email"))
+
+    def layout(row: list[str]) -> dict[str, str] | None:
+        participant = re.sub(r"\D", "", _cell(row, ident))
+        if not (participant or _cell(row, name)):
+            return None
+        return {
+            "student_id": _cell(row, number) or _cell(row, email),
+            "name": _cell(row, name),
+            "email": _cell(row, email),
+            "lms_id": participant,
+        }
+
+    return layout
+
+
+_ASSIGNMENT_COLUMN = re.compile(r"(?P<title>.*\S)\s*\((?P<id>\d+)\)")
+
+
+def canvas_assignment_id(path: Path, title: str) -> str:
+    """The Canvas id of the assignment called *title* in a Canvas gradebook export's header
+    (``Homework 5 (123456)``; titles compared ignoring case and spacing), or ``""`` when *path* is
+    not a Canvas export or has no such column. Canvas then imports grades into that assignment
+    rather than offering to create a new one."""
+    try:
+        text, _ = decode_bytes(Path(path).read_bytes())
+        header = next(csv.reader(io.StringIO(text, newline=""), delimiter=sniff_delimiter(text)), [])
+    except (OSError, csv.Error):
+        return ""
+    keys = [header_key(c) for c in header]
+    if "student" not in keys or not ("sis_user_id" in keys or "id" in keys):
+        return ""
+    wanted = " ".join(title.split()).casefold()
+    for cell in header:
+        m = _ASSIGNMENT_COLUMN.fullmatch(cell.replace("\ufeff", "").strip())
+        if m and " ".join(m["title"].split()).casefold() == wanted:
+            return m["id"]
+    return ""
 
 
 def _plain(col: dict[str, int]) -> Layout:

@@ -85,3 +85,43 @@ def test_empty_and_binary_rosters(tmp_path: Path) -> None:
         read_roster(binary)
     with pytest.raises(GradekitError, match="expected a readable roster file"):
         read_roster(tmp_path / "missing.csv")
+
+
+def test_moodle_export_of_a_site_without_id_numbers_keys_students_by_email(tmp_path: Path) -> None:
+    path = tmp_path / "moodle.csv"
+    path.write_text(
+        "First name,Last name,ID number,Institution,Department,Email address,Assignment: HW 5 (Real),"
+        "Last downloaded from this course\n"
+        "Lars,de Vries,,Uni,,lars@uni.edu,-,1764000000\nSelam,Haile,2001,Uni,,selam@uni.edu,7.5,1764000000\n",
+        encoding="utf-8",
+    )
+    assert read_roster(path) == [
+        Student("lars@uni.edu", "Lars de Vries", email="lars@uni.edu"),
+        Student("2001", "Selam Haile", email="selam@uni.edu"),
+    ]
+
+
+def test_moodle_grading_worksheet_keeps_the_participant_id(tmp_path: Path) -> None:
+    """The participant id is the number Moodle's downloads and feedback zips put in folder names."""
+    path = tmp_path / "Grades-HW5.csv"
+    path.write_text(
+        "Identifier,Full name,ID number,Email address,Status,Grade,Maximum Grade,Grade can be changed,"
+        "Last modified (submission),Last modified (grade),Feedback comments\n"
+        "Participant 4242,Lars de Vries,,lars@uni.edu,Submitted for grading,,60.00,Yes,,-,\n"
+        "Participant 4243,Selam Haile,2001,selam@uni.edu,No submission,,60.00,Yes,-,-,\n",
+        encoding="utf-8",
+    )
+    assert read_roster(path) == [
+        Student("lars@uni.edu", "Lars de Vries", email="lars@uni.edu", lms_id="4242"),
+        Student("2001", "Selam Haile", email="selam@uni.edu", lms_id="4243"),
+    ]
+
+
+def test_canvas_assignment_id_from_the_gradebook_export_header(tmp_path: Path) -> None:
+    from gradekit.roster import canvas_assignment_id
+
+    assert canvas_assignment_id(DATA / "canvas_roster.csv", "HW 1") == "111"
+    assert canvas_assignment_id(DATA / "canvas_roster.csv", "  hw   1 ") == "111"  # case and spacing
+    assert canvas_assignment_id(DATA / "canvas_roster.csv", "HW 2") == ""
+    assert canvas_assignment_id(DATA / "moodle_roster.csv", "HW 1") == ""
+    assert canvas_assignment_id(tmp_path / "missing.csv", "HW 1") == ""
