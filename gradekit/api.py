@@ -6,6 +6,7 @@
     r = gradekit.solve(v)                                # r.answers["T"].value, .unit; r.checks
     vs = gradekit.sample_many(p, seeds=range(10_000))    # batched
     rs = gradekit.solve_many(vs)                         # rs.answers["T"]: an array (answer unit); rs.ok
+    turn = gradekit.solve_many(p, {"phi1": numpy.arange(0.0, 360.0)})  # a crank turn in one batch
     fig = gradekit.figure(v, "scene")                    # a matplotlib Figure
 
 Every function raises `gradekit.errors.GradekitError` (with file, line and field) for data a user
@@ -92,7 +93,7 @@ def solve(variant: Variant | Problem | str, values: dict[str, float] | None = No
     from gradekit.pipeline import published_values, solve_problem
 
     p = _problem(variant)
-    return solve_problem(p, {**published_values(p), **(values or {})})
+    return solve_problem(p, {**published_values(p), **_known(p, values)})
 
 
 def solve_many(variants: VariantBatch | Problem | str, values: dict | None = None) -> VariantBatch | ResultBatch:
@@ -109,9 +110,23 @@ def solve_many(variants: VariantBatch | Problem | str, values: dict | None = Non
     from gradekit.pipeline import solve_many as batch
 
     p = _problem(variants)
-    vals = {**published_values(p), **(values or {})}
+    vals = {**published_values(p), **_known(p, values)}
     n = max((np.size(v) for v in vals.values()), default=1)
     return batch(p, vals, n)
+
+
+def _known(p: Problem, values: dict | None) -> dict:
+    """*values*, refused when one is not a parameter of *p* (a misspelt name would otherwise leave the
+    published value in place and every answer the same, without a word)."""
+    unknown = [name for name in values or {} if name not in p.parameters]
+    if unknown:
+        from gradekit.errors import GradekitError
+
+        raise GradekitError(
+            f"expected values of {p.id}'s parameters ({', '.join(p.parameters)}), got {', '.join(map(repr, unknown))}",
+            path=p.path or None,
+        )
+    return dict(values or {})
 
 
 def figure(variant: Variant | Result, name: str = "scene", case: str | None = None):
@@ -182,11 +197,8 @@ def grade(
     gives carried-forward credit on every problem whose assignment entry does not turn it off
     (``carry_forward:`` in the assignment turns it on without the option).
     """
-    from gradekit.grading.batch import gc_paused
-
-    with gc_paused():  # the class's keys and answers: see gc_paused
-        return _grade(assignment, roster, submissions, out, manifest, reveal, bank, recompute_keys, carry_forward,
-                      warn, progress)
+    return _grade(assignment, roster, submissions, out, manifest, reveal, bank, recompute_keys, carry_forward, warn,
+                  progress)
 
 
 def _grade(assignment, roster, submissions, out, manifest, reveal, bank, recompute_keys, carry_forward, warn,
@@ -232,7 +244,7 @@ def _grade(assignment, roster, submissions, out, manifest, reveal, bank, recompu
         if frozen is not None:  # the variants behind the frozen keys (checked against them per problem)
             variants = class_keys(asg, ids, redraws, with_mistakes=False, need_keys=False)[1]
         carry = CarryForward(variants, credit)
-        carry.check(keys.all() if frozen is not None else keys, say)
+        carry.check(keys, say)
     titles = {it.label: f"{it.label}: {it.problem.title}" for it in asg.items}
     return grade_batch(
         keys, students, Path(submissions), Path(out), assignment_title=asg.title, reveal=reveal, problem_titles=titles,
@@ -241,22 +253,13 @@ def _grade(assignment, roster, submissions, out, manifest, reveal, bank, recompu
 
 
 def _frozen_class(frozen, ids, compute, say):
-    """The class's keys for `grade_batch` from the frozen keys (a `gradekit.frozen.FrozenKeys`), as a
-    `StudentKeys` that builds no student's entries yet: the roster's students in the file in roster
-    order, then those keys are *compute*d for (not on the roster at generation)."""
-    from collections import ChainMap
-
-    from gradekit.grading.batch import StudentKeys
-
+    """The class's key entries from the frozen keys (``{student: entries}``): the roster's students in the
+    file in roster order, then those whose keys are *compute*d now (not on the roster at generation)."""
     present = [s for s in ids if s in frozen]
     missing = [s for s in ids if s not in frozen]
-    answers = frozen.answers(present)
-    if not missing:
-        return StudentKeys(frozen, present, answers)
-    say(f"{len(missing)} roster student(s) have no frozen key (not on the roster at generation: "
-        f"{', '.join(missing[:5])}{'…' if len(missing) > 5 else ''}); their keys are computed now")
-    computed: dict[str, list] = {}
-    for e in compute(missing):  # student by student, in the order of *missing*
-        computed.setdefault(e.student_id, []).append(e)
-        answers.setdefault(e.key, e.problem)
-    return StudentKeys(ChainMap(computed, frozen), present + list(computed), answers)
+    keys = [e for s in present for e in frozen[s]]
+    if missing:
+        say(f"{len(missing)} roster student(s) have no frozen key (not on the roster at generation: "
+            f"{', '.join(missing[:5])}{'…' if len(missing) > 5 else ''}); their keys are computed now")
+        keys += compute(missing)
+    return keys

@@ -18,11 +18,11 @@ import orjson
 
 from gradekit import __version__, frozen
 from gradekit.bank.model import Problem
-from gradekit.bank.registry import load_bank
+from gradekit.bank.registry import load_bank, load_problems
 from gradekit.bank.schema import _Collector, _tolerance
 from gradekit.bank.yamlfile import load
 from gradekit.errors import ErrorList, GradekitError, ProblemError
-from gradekit.keys import KeyEntry, Tolerance
+from gradekit.keys import KeyEntry, Tolerance, tolerance_columns, within
 from gradekit.mistakes import catalogued_mistakes
 from gradekit.sampling import Variant, derive_seed, variant
 
@@ -43,6 +43,25 @@ class Item:
 
 
 @dataclass(frozen=True)
+class Online:
+    """The rules of the online page (``online:`` in the assignment; `gradekit serve`).
+
+    ``attempts`` per answer; ``penalty_per_attempt``: the fraction of an answer's points lost for each
+    attempt before the one that counts (0: none); ``due``: an ISO date and time with its UTC offset
+    ("": no due date), after which the page is read-only; ``late_policy``: ``closed`` (after the due
+    date the page shows the verdicts only) or ``show-key`` (it also shows each answer's key).
+    """
+
+    attempts: int = 3
+    penalty_per_attempt: float = 0.0
+    due: str = ""
+    late_policy: str = "closed"
+
+
+LATE_POLICIES = ("closed", "show-key")
+
+
+@dataclass(frozen=True)
 class Assignment:
     title: str
     course: str
@@ -59,6 +78,7 @@ class Assignment:
     # the tolerance) or "band" (and a coarse band in multiples of the tolerance)
     feedback: str = "direction"
     carry_credit: float | None = None  # the problems' default carry-forward credit (see Item)
+    online: Online = dataclasses.field(default_factory=lambda: Online())  # `gradekit serve`'s rules
 
     def carry(self, forced: bool = False) -> dict[str, float]:
         """Each item's carry-forward credit (0: not carried). *forced* (``--carry-forward``) turns it
@@ -79,9 +99,12 @@ def load_assignment(path: Path | str, bank: Path | str | None = None) -> Assignm
         data,
         "",
         ("title", "course", "salt", "problems"),
-        ("term", "due", "instructions", "submission", "bank", "redraws", "feedback", "carry_forward"),
+        ("term", "due", "instructions", "submission", "bank", "redraws", "feedback", "carry_forward", "online"),
     )
-    problems = load_bank(bank or (path.parent / data["bank"] if isinstance(data.get("bank"), str) else None))
+    listed = data.get("problems") if isinstance(data.get("problems"), list) else []
+    named = [it.get("id") for it in listed if isinstance(it, dict) and isinstance(it.get("id"), str)]
+    folder = bank or (path.parent / data["bank"] if isinstance(data.get("bank"), str) else None)
+    problems = load_problems(named, folder) if named else load_bank(folder)
     items = []
     labels: set[str] = set()
     node = data.get("problems")
@@ -132,6 +155,7 @@ def load_assignment(path: Path | str, bank: Path | str | None = None) -> Assignm
     if feedback not in ("direction", "band"):
         c.err(data, "feedback", "feedback", f"expected direction or band, got {feedback!r}")
     carry = _carry(c, data, "carry_forward", "carry_forward") if "carry_forward" in data else None
+    online = _online(c, data) if "online" in data else Online()
     if c.errors:
         raise ErrorList(c.errors)
     return Assignment(
@@ -148,7 +172,43 @@ def load_assignment(path: Path | str, bank: Path | str | None = None) -> Assignm
         redraws,
         str(feedback),
         carry,
+        online,
     )
+
+
+def _online(c: _Collector, data) -> Online:
+    """``online: {attempts, penalty_per_attempt, due, late_policy}``, each optional (see `Online`)."""
+    import datetime as dt
+
+    m = c.mapping(data["online"], "online", (), ("attempts", "penalty_per_attempt", "due", "late_policy"), data,
+                  "online")
+    if m is None:
+        return Online()
+    attempts = m.get("attempts", 3)
+    if not isinstance(attempts, int) or isinstance(attempts, bool) or not 1 <= attempts <= 100:
+        c.err(m, "attempts", "online.attempts", f"expected a whole number from 1 to 100, got {attempts!r}")
+        attempts = 3
+    penalty = c.number(m, "penalty_per_attempt", "online.penalty_per_attempt", 0.0)
+    if penalty is not None and not 0 <= penalty <= 1:
+        c.err(m, "penalty_per_attempt", "online.penalty_per_attempt",
+              f"expected a fraction of the points from 0 to 1, got {penalty}")
+    due = m.get("due", "")
+    if isinstance(due, str) and due:
+        try:
+            due = dt.datetime.fromisoformat(due)
+        except ValueError:
+            pass
+    if isinstance(due, dt.datetime) and due.tzinfo is not None:
+        due = due.isoformat()
+    elif due != "":
+        c.err(m, "due", "online.due",
+              f"expected a date and time with its UTC offset (2026-12-01T23:59:00+01:00), got {str(due)!r}")
+        due = ""
+    policy = m.get("late_policy", "closed")
+    if policy not in LATE_POLICIES:
+        c.err(m, "late_policy", "online.late_policy", f"expected {' or '.join(LATE_POLICIES)}, got {policy!r}")
+        policy = "closed"
+    return Online(attempts, penalty or 0.0, due, policy)
 
 
 def _carry(c: _Collector, node, key: str, where: str) -> float | None:
@@ -227,10 +287,25 @@ def keys_for(asg: Assignment, item: Item, student_id: str, v: Variant, with_mist
                 shares[i],
                 a.description,
                 a.sign,
-                tuple(m for m in mistakes.get(a.key, ()) if not tol.accepts(m.value, a.value)),
+                tuple(mistakes.get(a.key, ())),
             )
         )
-    return out
+    return _distinct_mistakes(out)
+
+
+def _distinct_mistakes(entries: list[KeyEntry]) -> list[KeyEntry]:
+    """*entries* each without the catalogued mistakes its own band accepts around the key (no mistake a
+    right answer could be taken for), all checked in one pass."""
+    pairs = [(e, m) for e in entries for m in e.mistakes]
+    if not pairs:
+        return entries
+    same = within([m.value for _, m in pairs], [e.value for e, _ in pairs],
+                  *tolerance_columns([e.tolerance for e, _ in pairs])).tolist()
+    kept: dict[int, list] = {id(e): [] for e in entries}
+    for (e, m), hit in zip(pairs, same, strict=True):
+        if not hit:
+            kept[id(e)].append(m)
+    return [replace(e, mistakes=tuple(kept[id(e)])) if len(kept[id(e)]) != len(e.mistakes) else e for e in entries]
 
 
 STEPS = (0.5, 0.25, 0.1, 0.05, 0.01)  # readable answer points, coarsest first
@@ -419,5 +494,14 @@ def redraws_from_manifest(path: Path) -> dict[str, dict[str, int]]:
     data = _manifest_data(path)
     out = {}
     for s, seeds in data.get("students", {}).items():
-        out[s] = {label: int(v.get("redraw", 0)) if isinstance(v, dict) else 0 for label, v in seeds.items()}
+        out[s] = {label: _redraw(v.get("redraw", 0), path, f"students.{s}.{label}.redraw") if isinstance(v, dict)
+                  else 0 for label, v in seeds.items()}
     return out
+
+
+def _redraw(value, path: Path, field: str) -> int:
+    """A recorded re-draw counter: a whole number from 0 (a manifest edited by hand says where it is not)."""
+    if isinstance(value, bool) or not isinstance(value, int) or value < 0:
+        raise ProblemError(f"expected a re-draw counter (a whole number from 0), got {value!r}", path=str(path),
+                           field=field)
+    return value

@@ -9,6 +9,53 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field, replace
 
+import numpy as np
+
+
+def half_widths(values, rel, abs_, sigfigs=0):
+    """Half-widths of the acceptance bands around key *values*: max(rel·|v|, abs), and where
+    *sigfigs* > 0 at least half a unit in the last of that many significant figures. Every argument
+    may be an array (one item a cell) or one number. The one band rule of gradekit: grading, copy
+    detection, the documents and the quiz exports all read it."""
+    v = np.abs(np.asarray(values, float))
+    width = np.maximum(np.multiply(rel, v), abs_)
+    sig = np.asarray(sigfigs)
+    if np.any(sig > 0):
+        with np.errstate(divide="ignore", invalid="ignore"):
+            exponent = np.floor(np.log10(np.where(v > 0, v, 1.0))) - sig + 1
+        width = np.where((v > 0) & (sig > 0), np.maximum(width, 0.5 * 10.0**exponent), width)
+    return width
+
+
+def wrapped(difference, period):
+    """*difference* wrapped into [−period/2, period/2) where *period* > 0 (360 for directions in degrees)."""
+    period = np.asarray(period, float)
+    if not np.any(period > 0):
+        return difference
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(period > 0, (difference + period / 2) % np.where(period > 0, period, 1.0) - period / 2,
+                        difference)
+
+
+def within(answers, values, rel, abs_, sigfigs=0, period=0.0):
+    """True where each answer lies in the band around its key value: |wrapped(x − v)| ≤ `half_widths`
+    (with a relative allowance of 1e-12 for rounding). NaN and infinities are never within."""
+    answers, values = np.asarray(answers, float), np.asarray(values, float)
+    with np.errstate(invalid="ignore"):
+        ok = np.abs(wrapped(answers - values, period)) <= half_widths(values, rel, abs_, sigfigs) * (1 + 1e-12)
+    return ok & np.isfinite(answers) & np.isfinite(values)
+
+
+def tolerance_columns(tolerances) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Tolerances (each with its floor resolved into ``abs``) as the columns `within` reads: rel, abs,
+    significant figures (0 where the mode is not ``sigfigs``) and period."""
+    return (
+        np.array([t.rel for t in tolerances], float),
+        np.array([t.abs for t in tolerances], float),
+        np.array([t.sigfigs if t.mode == "sigfigs" else 0 for t in tolerances], float),
+        np.array([t.period for t in tolerances], float),
+    )
+
 
 @dataclass(frozen=True)
 class Tolerance:
@@ -39,49 +86,33 @@ class Tolerance:
             return self
         return replace(self, abs=max(self.abs, self.floor * abs(scale)))
 
-    def difference(self, answer: float, value: float) -> float:
-        """answer - value, wrapped into [-period/2, period/2) when the tolerance has a period."""
-        d = answer - value
-        if self.period:
-            d = (d + self.period / 2) % self.period - self.period / 2
-        return d
+    def difference(self, answer, value):
+        """answer − value, wrapped into [−period/2, period/2) when the tolerance has a period."""
+        return wrapped(np.subtract(answer, value), self.period)
+
+    def bands(self, values, scales=0.0):
+        """Half-widths of the acceptance bands around key *values* (an array, or one value), each with
+        its variant's *scale* for the floor (`half_widths` with ``abs`` raised to floor·|scale|)."""
+        return half_widths(values, self.rel, self._abs(scales), self.sigfigs if self.mode == "sigfigs" else 0)
 
     def band(self, value: float) -> float:
         """Half-width of the acceptance band around the key *value*."""
-        width = max(self.rel * abs(value), self.abs)
-        if self.mode == "sigfigs" and value != 0:
-            exponent = math.floor(math.log10(abs(value))) - self.sigfigs + 1
-            width = max(width, 0.5 * 10.0**exponent)
-        return width
+        return float(self.bands(value))
 
-    def bands(self, values, scales):
-        """`band` for arrays of key values, each with its variant's scale (floor resolved per variant)."""
-        import numpy as np
-
-        v = np.abs(np.asarray(values, float))
-        scales = np.abs(np.asarray(scales, float))
-        floor = np.where(np.isfinite(scales), np.maximum(self.abs, self.floor * scales), self.abs) if self.floor else 0
-        width = np.maximum(self.rel * v, np.maximum(self.abs, floor))
-        if self.mode == "sigfigs":
-            with np.errstate(divide="ignore", invalid="ignore"):
-                exponent = np.floor(np.log10(np.where(v > 0, v, 1.0))) - self.sigfigs + 1
-            width = np.where(v > 0, np.maximum(width, 0.5 * 10.0**exponent), width)
-        return width
-
-    def accepts_many(self, answers, values, scales):
-        """`accepts` for arrays: each answer against its key value, the floor resolved per variant."""
-        import numpy as np
-
-        answers, values = np.asarray(answers, float), np.asarray(values, float)
-        with np.errstate(invalid="ignore"):
-            ok = np.abs(self.difference(answers, values)) <= self.bands(values, scales) * (1 + 1e-12)
-        return ok & np.isfinite(answers) & np.isfinite(values)
+    def accepts_many(self, answers, values, scales=0.0):
+        """`within` for this tolerance: True where an answer lies in the band around its key value."""
+        return within(answers, values, self.rel, self._abs(scales), self.sigfigs if self.mode == "sigfigs" else 0,
+                      self.period)
 
     def accepts(self, answer: float, value: float) -> bool:
         """True when *answer* is within the band around *value*."""
-        if not (math.isfinite(answer) and math.isfinite(value)):
-            return False
-        return abs(self.difference(answer, value)) <= self.band(value) * (1 + 1e-12)
+        return bool(self.accepts_many(answer, value))
+
+    def _abs(self, scales):
+        if not self.floor:
+            return self.abs
+        scales = np.abs(np.asarray(scales, float))
+        return np.maximum(self.abs, np.where(np.isfinite(scales), self.floor * scales, 0.0))
 
     def describe(self) -> str:
         """Human text, e.g. ``±1 % (at least 0.05)`` or ``3 significant figures``."""
@@ -122,52 +153,3 @@ class KeyEntry:
     description: str = ""
     sign_convention: str = ""
     mistakes: tuple[Mistake, ...] = field(default=())
-
-    def __getstate__(self) -> dict:
-        if "mistakes" not in self.__dict__:  # deferred (`_Deferred`): made now, so a copy stands alone
-            self.mistakes  # noqa: B018
-        return self.__dict__
-
-
-class _Deferred:
-    """``KeyEntry.mistakes`` of an entry made without its mistakes (the frozen keys: most answers are
-    right and never read them): its ``__dict__`` holds ``_mistakes_later``, a pair (function,
-    argument) that makes the tuple, made on first read and kept. An entry made by ``__init__`` holds
-    its tuple and never reaches this (a non-data descriptor: the instance's own value wins); read on
-    the class, it is the field's default."""
-
-    def __get__(self, entry: KeyEntry | None, owner: type | None = None) -> tuple[Mistake, ...]:
-        if entry is None:
-            return ()
-        fields = entry.__dict__
-        make, arg = fields["_mistakes_later"]
-        mistakes = fields["mistakes"] = make(arg)
-        del fields["_mistakes_later"]
-        return mistakes
-
-
-KeyEntry.mistakes = _Deferred()  # after the dataclass took its default
-
-
-@dataclass(frozen=True)
-class KeyColumns:
-    """A class's key entries as columns, one row an entry, made without the entries (the frozen keys:
-    `gradekit.frozen.FrozenKeys.columns`): what copy detection reads of them
-    (`gradekit.grading.integrity.class_keys`).
-
-    ``students`` in order, a student's ``count`` entries standing together; per entry its answer
-    ``keys``, ``values`` and ``floors`` (the absolute floor of its tolerance, as ``Tolerance.abs``,
-    arrays of floats); per answer key, ``answers`` holds its problem and its tolerance without the
-    floor (``abs`` 0): an entry's tolerance is that one with its own floor.
-    """
-
-    students: list[str]
-    counts: list[int]
-    keys: list[str]
-    values: object  # numpy.ndarray
-    floors: object  # numpy.ndarray
-    answers: dict[str, tuple[str, Tolerance]]
-
-    def tolerance(self, i: int) -> Tolerance:
-        """Entry *i*'s tolerance."""
-        return replace(self.answers[self.keys[i]][1], abs=float(self.floors[i]))

@@ -215,21 +215,3 @@ def test_the_command_has_the_option(course):
     assert int(rows["7001"]["carried"]) == len(course[2]["7001"])
 
 
-def test_a_helper_process_carries_the_same(course, monkeypatch, tmp_path):
-    """A large class is graded in two processes: the students the helper grades come back with
-    their carried answers and points (the feedback it wrote says so too)."""
-    from gradekit.grading import parallel
-
-    tmp = course[0]
-    alone = gradekit.grade(tmp / "hw.yaml", tmp / "roster.csv", tmp / "subs", tmp_path / "alone", carry_forward=True)
-    monkeypatch.setattr(parallel, "FROM", 1)
-    monkeypatch.setattr(parallel, "SHARE", 0.7)
-    monkeypatch.setattr(parallel, "spare_core", lambda since=None: True)
-    assert parallel.helper_share(list(IDS))  # the helper takes some of the class
-    both = gradekit.grade(tmp / "hw.yaml", tmp / "roster.csv", tmp / "subs", tmp_path / "both", carry_forward=True)
-    for sid in IDS:
-        a, b = _by_key(alone, sid), _by_key(both, sid)
-        assert a[0].total == b[0].total and a[0].problems == b[0].problems
-        assert {k: r.carried for k, r in a[1].items()} == {k: r.carried for k, r in b[1].items()}
-    for name in ("grades.csv", "report.md", "feedback/7001.md", "feedback/7001.html"):
-        assert (tmp_path / "alone" / name).read_bytes() == (tmp_path / "both" / name).read_bytes(), name

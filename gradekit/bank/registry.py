@@ -2,14 +2,19 @@
 
 from __future__ import annotations
 
+import logging
+import re
+from collections.abc import Iterable
 from pathlib import Path
 
 from gradekit.bank.model import Problem
 from gradekit.bank.schema import load_problem
+from gradekit.bank.yamlfile import is_regular
 from gradekit.errors import ErrorList, GradekitError, ProblemError
 from gradekit.resources import resource_dir
 
 DEFAULT_BANK = resource_dir("problem_bank")
+log = logging.getLogger("gradekit")
 
 
 def bank_dir(path: Path | str | None = None) -> Path:
@@ -30,6 +35,9 @@ def load_bank(path: Path | str | None = None) -> dict[str, Problem]:
     errors: list[GradekitError] = []
     for f in sorted(folder.glob("*.yaml")):
         if f.name.startswith("_"):  # generated data (e.g. _tolerances.yaml), not a problem
+            continue
+        if not is_regular(f):  # a FIFO would hang the read; a folder or device is no problem file
+            log.warning("warning: %s: skipped, not a regular file", f)
             continue
         try:
             p = load_problem(f)
@@ -52,6 +60,36 @@ def load_bank(path: Path | str | None = None) -> dict[str, Problem]:
         problems[p.id] = p
     if errors:
         raise ErrorList(errors)
+    return problems
+
+
+_ID_LINE = re.compile(r"^id:[ \t]*[\"']?([^\"'\s#]+)", re.MULTILINE)
+
+
+def load_problems(ids: Iterable[str], path: Path | str | None = None) -> dict[str, Problem]:
+    """The bank's problems with these *ids*, parsing only their files: each file's top-level ``id:`` line
+    is looked at first (an assignment names a few of the bank's problems). When an id is not found
+    that way, or two files state one of them, the whole bank is loaded (`load_bank`), whose messages
+    say what is wrong."""
+    wanted = set(ids)
+    folder = bank_dir(path)
+    if not folder.is_dir():
+        raise ProblemError(f"expected a folder of problem YAML files, got nothing at {folder}")
+    files: dict[str, list[Path]] = {}
+    for f in sorted(folder.glob("*.yaml")):
+        if f.name.startswith("_") or not is_regular(f):
+            continue
+        try:
+            m = _ID_LINE.search(f.read_text(encoding="utf-8"))
+        except (OSError, UnicodeDecodeError):
+            continue
+        if m and m.group(1) in wanted:
+            files.setdefault(m.group(1), []).append(f)
+    if set(files) != wanted or any(len(fs) > 1 for fs in files.values()):
+        return load_bank(path)
+    problems = {pid: load_problem(fs[0]) for pid, fs in files.items()}
+    if any(p.id != pid for pid, p in problems.items()):  # an id line the scan misread
+        return load_bank(path)
     return problems
 
 

@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import os
 import re
+import stat
 from pathlib import Path
 
 import yaml
@@ -125,10 +127,7 @@ def load(path: Path | str) -> LineDict:
     """Read a YAML mapping with line numbers; raise `ProblemError` naming the file and line."""
     path = Path(path)
     try:
-        size = path.stat().st_size
-        if size > MAX_BYTES:
-            raise ProblemError(f"expected a YAML file under {MAX_BYTES:,} bytes, got {size:,}", path=str(path))
-        text = path.read_text(encoding="utf-8-sig")
+        text = _read_regular(path).decode("utf-8-sig")
     except (OSError, UnicodeDecodeError) as exc:
         raise ProblemError(
             f"expected a readable UTF-8 YAML file, got {exc.__class__.__name__}: {exc}", path=str(path)
@@ -147,6 +146,41 @@ def load(path: Path | str) -> LineDict:
     if not isinstance(data, dict):
         raise ProblemError(f"expected a mapping at the top, got {type(data).__name__}", path=str(path), line=1)
     return data
+
+
+def is_regular(path: Path) -> bool:
+    """Whether *path* (links followed) is a regular file: a FIFO, socket or device is never opened to be
+    read, where reading a FIFO would wait for a writer forever."""
+    try:
+        return stat.S_ISREG(path.stat().st_mode)
+    except OSError:
+        return False
+
+
+def _read_regular(path: Path) -> bytes:
+    """The bytes of the regular file *path*, at most `MAX_BYTES` of them.
+
+    Opened without blocking (opening a FIFO to read would wait for a writer) and checked to be a
+    regular file on the open descriptor, so a file swapped for a FIFO in between is refused too.
+    """
+    fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_BINARY", 0))
+    with os.fdopen(fd, "rb") as handle:
+        info = os.fstat(fd)
+        if not stat.S_ISREG(info.st_mode):
+            raise ProblemError(f"expected a regular YAML file, got {_kind(info.st_mode)}", path=str(path))
+        if info.st_size > MAX_BYTES:
+            raise ProblemError(f"expected a YAML file under {MAX_BYTES:,} bytes, got {info.st_size:,}", path=str(path))
+        return handle.read(MAX_BYTES + 1)
+
+
+def _kind(mode: int) -> str:
+    """What a file that is not a regular file is, in words."""
+    for test, name in ((stat.S_ISDIR, "a folder"), (stat.S_ISFIFO, "a FIFO (named pipe)"),
+                       (stat.S_ISSOCK, "a socket"), (stat.S_ISCHR, "a character device"),
+                       (stat.S_ISBLK, "a block device")):
+        if test(mode):
+            return name
+    return "a special file"
 
 
 def _flow_hint(text: str, mark) -> str:

@@ -2,21 +2,15 @@
 
 from __future__ import annotations
 
-import gc
 import logging
 import os
-import time
-from collections.abc import Iterable, Iterator, Mapping, Sequence
-from contextlib import closing, contextmanager, nullcontext
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
-from functools import partial
-from itertools import groupby
-from operator import attrgetter
 from pathlib import Path
 
 from gradekit.csvsafe import StagedFolder, write_staged
 from gradekit.errors import GradekitError
-from gradekit.grading.compare import StudentGrade, grade_student
+from gradekit.grading.compare import StudentGrade, grade_class, grade_student
 from gradekit.grading.exports import (
     _md_cell,
     feedback_pages,
@@ -28,10 +22,9 @@ from gradekit.grading.exports import (
     write_moodle,
     write_text,
 )
-from gradekit.grading.integrity import IntegrityFlag, class_keys, find_copies
-from gradekit.grading.parallel import Claims, Forked, Look, PackedGrade, Stream, helper_share, pack
+from gradekit.grading.integrity import IntegrityFlag, find_copies
 from gradekit.grading.reader import IdIndex, KeyIndex, Submission, read_file, special_kind
-from gradekit.keys import KeyColumns, KeyEntry
+from gradekit.keys import KeyEntry
 from gradekit.roster import Student
 
 MARKER = ".gradekit-output"
@@ -53,9 +46,6 @@ class FileRecord:
     student_ids: tuple[str, ...] = ()
 
 
-_RECORD = attrgetter(*FileRecord.__dataclass_fields__)  # a record's fields, in order (astuple also copies them)
-
-
 @dataclass(frozen=True)
 class Intake:
     """The submissions read from a folder: the one chosen per student, and every file's fate."""
@@ -64,61 +54,15 @@ class Intake:
     files: tuple[FileRecord, ...]
 
 
-class Grades(Sequence[StudentGrade]):
-    """`BatchResult.grades`: one grade per roster student, in roster order, those a helper process
-    sent (`PackedGrade`) built as `StudentGrade` on first access (a command-line run reads none of
-    them). Equal to the tuple of the same grades, and pickled as one.
-    """
-
-    __slots__ = ("_grades",)
-
-    def __init__(self, grades: Iterable[StudentGrade]) -> None:
-        self._grades = list(grades)
-
-    def as_made(self) -> list[StudentGrade]:
-        """The grades as they are, a helper's not built: their student, submission, problems, issues
-        and `StudentGrade.columns` are at hand, their results built when read."""
-        return self._grades
-
-    def __len__(self) -> int:
-        return len(self._grades)
-
-    def __getitem__(self, i):  # noqa: ANN001, ANN204 (an index or a slice, as a tuple's)
-        if isinstance(i, slice):
-            return tuple(self[j] for j in range(*i.indices(len(self._grades))))
-        g = self._grades[i]
-        if isinstance(g, PackedGrade):
-            g = self._grades[i] = g.built()
-        return g
-
-    def __iter__(self) -> Iterator[StudentGrade]:
-        return map(self.__getitem__, range(len(self._grades)))
-
-    def __eq__(self, other: object) -> bool:
-        if isinstance(other, Grades | tuple):
-            return tuple(self) == tuple(other)
-        return NotImplemented
-
-    def __hash__(self) -> int:
-        return hash(tuple(self))
-
-    def __repr__(self) -> str:
-        return repr(tuple(self))
-
-    def __reduce__(self) -> tuple:
-        return tuple, (tuple(self),)
-
-
 @dataclass(frozen=True)
 class BatchResult:
     """The outcome of `grade_batch`.
 
     ``grades`` holds one entry per roster student, in roster order (a student without a
-    submission scores 0 with ``submission=None``): a `Grades`, which builds on first access those a
-    helper process graded.
+    submission scores 0 with ``submission=None``).
     """
 
-    grades: Grades
+    grades: tuple[StudentGrade, ...]
     files: tuple[FileRecord, ...]
     flags: tuple[IntegrityFlag, ...]
     out: Path
@@ -127,12 +71,12 @@ class BatchResult:
     @property
     def graded(self) -> int:
         """How many students had a submission graded."""
-        return sum(g.submission is not None for g in self.grades.as_made())
+        return sum(g.submission is not None for g in self.grades)
 
     @property
     def missing(self) -> tuple[Student, ...]:
         """Roster students without a submission."""
-        return tuple(g.student for g in self.grades.as_made() if g.submission is None)
+        return tuple(g.student for g in self.grades if g.submission is None)
 
     @property
     def ok(self) -> bool:
@@ -145,7 +89,7 @@ class BatchResult:
         return (
             all(f.status in ("graded", "ignored") for f in self.files)
             and not self.missing
-            and not any(g.issues for g in self.grades.as_made())
+            and not any(g.issues for g in self.grades)
         )
 
 
@@ -162,57 +106,6 @@ class IdConflict(IntegrityFlag):
             f"{self.student_id}'s key, {self.other_matches} fit {self.other_id}'s); {self.other_id}'s "
             "own submission is not replaced by it"
         )
-
-
-@dataclass(frozen=True)
-class StudentKeys:
-    """Every student's key entries for `grade_batch` without building them first (the frozen keys,
-    `gradekit.frozen.FrozenKeys`, build a student's list on first access): each process builds those
-    of the students it grades; those of a helper process's students only when their results are read
-    (`PackedGrade`: a command-line run never does), and copy detection reads the keys as columns.
-
-    ``entries`` per student; ``order``: the students whose entries make the class's key sequence
-    (`all`), in its order; ``answers``: each answer key in that sequence, with its problem, in order
-    of first appearance.
-    """
-
-    entries: Mapping[str, list[KeyEntry]]
-    order: Sequence[str]
-    answers: Mapping[str, str]
-
-    def all(self) -> list[KeyEntry]:
-        """The class's key entries, one student after the other (every student's built now)."""
-        entries = self.entries
-        return [e for sid in self.order for e in entries[sid]]
-
-    def columns(self) -> KeyColumns | list[KeyEntry]:
-        """What copy detection reads of `all`: the frozen keys' columns, no entry built
-        (`gradekit.frozen.FrozenKeys.columns`), or else the entries themselves."""
-        columns = getattr(self.entries, "columns", None)
-        return columns(self.order) if columns is not None else self.all()
-
-
-@contextmanager
-def gc_paused() -> Iterator[None]:
-    """Pause Python's cyclic garbage collector for a batch (restored after; reference counting
-    still frees everything). Grading a class allocates a few hundred thousand small records (keys,
-    answers, verdicts) that form no cycles, and every automatic full collection walks all of them
-    that are alive, so with the collector on, the time grew faster than the class.
-
-    On the way out, what is alive is frozen (``gc.freeze``, a list splice) before the collector is
-    turned back on: left in the youngest generation, all that the batch allocated was walked by the
-    first collection after ``gc.enable`` and again by the full collection at interpreter exit
-    (together about 1 s of CPU for 3,000 students, a fifth of the run). Frozen objects are still
-    freed by reference counting when dropped; only the cyclic collector leaves them out (a
-    long-running program that wants them examined again calls ``gc.unfreeze()``)."""
-    enabled = gc.isenabled()
-    gc.disable()
-    try:
-        yield
-    finally:
-        if enabled:
-            gc.freeze()
-            gc.enable()
 
 
 def _hidden(name: str) -> bool:
@@ -351,24 +244,15 @@ def grade_students(
     keys: Sequence[KeyEntry], students: Sequence[Student], chosen: Mapping[str, Submission]
 ) -> list[StudentGrade]:
     """Grade every roster student (in roster order) against their own key entries."""
-    entries = _entries(keys)
-    return [grade_student(s, entries.get(s.student_id, []), chosen.get(s.student_id)) for s in students]
+    return grade_class(students, _entries(keys), chosen)
 
 
-def _entries(keys: Sequence[KeyEntry]) -> dict[str, list[KeyEntry]]:
-    """Each student's key entries, in order (a student's entries usually stand together: one
-    `groupby` run a student)."""
+def _entries(keys: Iterable[KeyEntry]) -> dict[str, list[KeyEntry]]:
+    """Each student's key entries, in order."""
     entries: dict[str, list[KeyEntry]] = {}
-    for sid, run in groupby(keys, _STUDENT):
-        mine = entries.get(sid)
-        if mine is None:
-            entries[sid] = list(run)
-        else:
-            mine.extend(run)
+    for e in keys:
+        entries.setdefault(e.student_id, []).append(e)
     return entries
-
-
-_STUDENT, _KEY, _PROBLEM = attrgetter("student_id"), attrgetter("key"), attrgetter("problem")
 
 
 def _check_out(out: Path, submissions: Path) -> None:
@@ -435,7 +319,7 @@ def _first_section(report: str, section: str) -> str:
 
 
 def grade_batch(
-    keys: Sequence[KeyEntry] | StudentKeys,
+    keys: Sequence[KeyEntry],
     students: Sequence[Student],
     submissions: Path,
     out: Path,
@@ -455,13 +339,10 @@ def grade_batch(
     in only when complete (`StagedFolder`): after an error or Ctrl-C, OUT is still the previous
     complete run; feedback of students no longer on the roster is removed. The submissions folder
     is only read. A bad submission never raises: it scores what can be read and its messages go
-    to the feedback and the report. In a large class, when a core is free, a forked helper process
-    reads, grades and writes the feedback of the students whose files are named for them at the
-    roster's end (`gradekit.grading.parallel`); the outputs are the same byte for byte.
+    to the feedback and the report.
 
     Args:
-        keys: every student's key entries (grouped by ``student_id`` and ``problem``), or a
-            `StudentKeys` that builds them as the students are graded.
+        keys: every student's key entries.
         students: the roster.
         submissions: the folder of submission files.
         out: the output folder (created; must be empty or a previous gradekit output).
@@ -481,178 +362,51 @@ def grade_batch(
         GradekitError: no keys or students, the submissions folder is missing or empty, or the
             output folder cannot be used.
     """
-    with gc_paused():
-        return _grade_batch(keys, students, submissions, out, assignment_title, reveal, problem_titles, histogram, hint,
-                            carry)
-
-
-def _grade_batch(
-    keys: Sequence[KeyEntry] | StudentKeys,
-    students: Sequence[Student],
-    submissions: Path,
-    out: Path,
-    assignment_title: str,
-    reveal: bool,
-    problem_titles: Mapping[str, str] | None,
-    histogram: bool,
-    hint: str,
-    carry=None,
-) -> BatchResult:
-    look = Look()  # whether a core is free for a helper is seen over the work up to the choice
     submissions, out = Path(submissions), Path(out)
-    lazy = keys if isinstance(keys, StudentKeys) else None
-    if not (lazy.answers if lazy is not None else keys):
+    if not keys:
         raise GradekitError("expected answer keys, got none")
     if not students:
         raise GradekitError("expected a roster with students, got none")
     titles = dict(problem_titles or {})
     skip = out if out.resolve().is_relative_to(submissions.resolve()) else None
-    files, ignored = _walk(submissions, skip)
+    intake = read_submissions(submissions, students, keys, skip=skip)
     _check_out(out, submissions)
-    ids = IdIndex(students)
-    if lazy is not None:
-        key_index, entries = KeyIndex(lazy.answers), lazy.entries
-    else:
-        key_index, entries = KeyIndex(map(_KEY, keys)), _entries(keys)
-    by_id = {s.student_id: s for s in students}
-    found = [ids.from_path(relative) for _, _, relative in files]
-    named = [next(iter(f)) if len(f) == 1 else None for f in found]
-    share = _helper_share(students, named, look)  # the students a helper may take: shared out as both work
-    theirs = set(share)
-    if share:
-        log.debug("a helper process reads, grades and writes the feedback of up to %d of %d students", len(share),
-                  len(students))
-    files_of: dict[str, list[int]] = {}
-    for i, sid in enumerate(named):
-        if sid in theirs:
-            files_of.setdefault(sid, []).append(i)
-    problems = list(dict.fromkeys(lazy.answers.values() if lazy is not None else map(_PROBLEM, keys)))
+    entries = _entries(keys)
+    grades = grade_class(students, entries, intake.chosen)
+    if carry is not None:
+        grades = [carry.apply(g) for g in grades]
+    problems = list(dict.fromkeys(e.problem for e in keys))
     names = safe_names(s.student_id for s in students)
+    conflicts = _conflicts(grades, entries, students)
+    flags = conflicts + find_copies(grades, keys)
+    image = "histogram.png" if histogram else None
+    report = report_markdown(
+        assignment_title=assignment_title, grades=grades, files=[(f.path, f.status, f.detail) for f in intake.files],
+        flags=flags, histogram=image, carried=carry is not None,
+        carry_limits=carry.limits() if carry is not None else (),
+    )
+    report = _first_section(report, _attention(grades, conflicts, intake.files))
     with StagedFolder(out, MARKER) as stage:
         root = stage.root
         feedback = root / "feedback"
         feedback.mkdir()
-        in_feedback = os.path.join(feedback, "")  # as text: a file name is joined to it (pathlib costs more)
-
-        def read(indices: list[int]) -> dict[int, list[Submission]]:
-            return {i: read_file(*files[i], ids, key_index, found=found[i]) for i in indices}
-
-        def grade(student: Student, sub: Submission | None) -> StudentGrade:
-            g = grade_student(student, entries.get(student.student_id, []), sub)
-            return carry.apply(g) if carry is not None else g
-
-        def graded(student: Student, chosen: Mapping[str, Submission]) -> StudentGrade:
-            g = grade(student, chosen.get(student.student_id))
+        for g in grades:
             md, page = feedback_pages(g, titles, assignment_title, reveal, hint)
-            stem = names[student.student_id]
-            write_staged(f"{in_feedback}{stem}.md", md)
-            write_staged(f"{in_feedback}{stem}.html", page)
-            return g
-
-        def take(which: range) -> tuple[dict[int, list[Submission]], dict[str, Submission]]:
-            """The files of the students *which* (indices into the share) read, and each one's submission."""
-            per_file = read([i for j in which for i in files_of[share[j]]])
-            chosen = _choose(sub for subs in per_file.values() for sub in subs)
-            if chosen.keys() != {share[j] for j in which}:  # a file named for a student answers for them alone
-                raise RuntimeError(f"expected submissions of {len(which)} students, got {len(chosen)}")
-            return per_file, chosen
-
-        def helper() -> list[tuple]:
-            """The helper's share: the files named for the students it takes; their grades (sent to the
-            parent a few at a time, as they are made) and feedback; the files' records."""
-            records = []
-            for which in claims.back():
-                per_file, chosen = take(which)
-                stream.send([pack(graded(by_id[sid], chosen)) for sid in chosen])
-                records += [(i, *_RECORD(_record(files[i][1], subs, chosen))) for i, subs in per_file.items()]
-            return records
-
-        helped: dict[str, StudentGrade] = {}
-
-        def receive() -> None:
-            """The helper's grades sent so far (between the parent's own, so it never waits), not built."""
-            for packed in stream.receive():
-                for data in packed:
-                    sid = data[0][1]
-                    helped[sid] = PackedGrade(data, by_id[sid], partial(grade, by_id[sid]))
-
-        claims, stream = (Claims(len(share)), Stream()) if share else (None, None)
-        with (
-            Forked(helper) if share else nullcontext() as other,
-            closing(claims) if share else nullcontext(),
-            closing(stream) if share else nullcontext(),
-        ):
-            per_file = read([i for i, sid in enumerate(named) if sid not in theirs])
-            chosen = {sid: sub for sid, sub in _choose(s for subs in per_file.values() for s in subs).items()
-                      if sid not in theirs}
-            mine: list[StudentGrade | None] = []
-            for n, s in enumerate(students):
-                mine.append(None if s.student_id in theirs else graded(s, chosen))
-                if share and n % 8 == 7:
-                    receive()
-            if lazy is not None:
-                keys = lazy.columns()  # copy detection's view of every key, entries not built
-            prepared = class_keys(keys)  # the keys' part of copy detection, while the helper grades
-            taken: dict[str, StudentGrade] = {}
-            if claims is not None:  # then the helper's share from the front, until the two meet
-                for which in claims.front():
-                    more, chosen_now = take(which)
-                    per_file.update(more)
-                    chosen.update(chosen_now)
-                    taken.update((sid, graded(by_id[sid], chosen)) for sid in chosen_now)
-                    receive()
-            waited = time.perf_counter()
-            records = other.result() if share else []
-            if share:
-                receive()
-                log.debug("the helper graded %d students, the parent %d of the share; the parent waited %.2f s",
-                          len(helped), len(taken), time.perf_counter() - waited)
-        for sid, g in helped.items():
-            chosen[sid] = g.submission
-        taken.update(helped)
-        grades = [g if g is not None else taken[s.student_id] for g, s in zip(mine, students, strict=True)]
-        record = {i: FileRecord(*fields) for i, *fields in records}
-        record.update((i, _record(files[i][1], subs, chosen)) for i, subs in per_file.items())
-        intake_files = tuple([record[i] for i in range(len(files))] + ignored)
-        conflicts = _conflicts(grades, entries, students)
-        image = "histogram.png" if histogram else None
-        listed = [(f.path, f.status, f.detail) for f in intake_files]
-
-        def checked() -> tuple[list[IntegrityFlag], str]:
-            """The integrity flags (copy detection's among them) and the report, which lists them."""
-            flags = conflicts + find_copies(grades, keys, prepared=prepared)
-            report = report_markdown(
-                assignment_title=assignment_title, grades=grades, files=listed, flags=flags, histogram=image,
-                carried=carry is not None, carry_limits=carry.limits() if carry is not None else (),
-            )
-            return flags, _first_section(report, _attention(grades, conflicts, intake_files))
-
+            stem = names[g.student.student_id]
+            write_staged(feedback / f"{stem}.md", md)
+            write_staged(feedback / f"{stem}.html", page)
         write_grades(root / "grades.csv", grades, problems, titles, carried=carry is not None)
         write_canvas(root / "canvas.csv", grades, assignment_title)
         write_moodle(root / "moodle.csv", grades, assignment_title)
-        percents = [g.percent for g in grades if g.submission is not None]
-        # Copy detection and the report while the histogram is drawn, in a process forked for them (it reads the
-        # grades the fork shares and sends back the flags and the report's text), when a helper had a core for
-        # this class. The parent touches little of what they share meanwhile, so neither copies much of the other.
-        with Forked(checked) if share and histogram else nullcontext() as checking:
-            if histogram:
-                write_histogram(root / "histogram.png", percents, assignment_title)
-            flags, report = checking.result() if checking is not None else checked()
+        if histogram:
+            write_histogram(root / "histogram.png", [g.percent for g in grades if g.submission is not None],
+                            assignment_title)
         write_text(root / "report.md", report)
         written = stage.commit(
             "gradekit grading output; files listed here are rewritten by the next run, others are left alone",
             extra_previous=() if stage.previous() else _unlisted_outputs(out),
         )
-    return BatchResult(Grades(grades), intake_files, tuple(flags), out, tuple(written))
-
-
-def _helper_share(students: Sequence[Student], named: Sequence[str | None], since: Look | None = None) -> list[str]:
-    """The students a helper process may grade (see `parallel.helper_share`): of those whose file's name
-    points to them, the roster's last; none when the roster repeats an id."""
-    if len({s.student_id for s in students}) < len(students):
-        return []
-    has_file = set(named)
-    return helper_share([s.student_id for s in students if s.student_id in has_file], since)
+    return BatchResult(tuple(grades), intake.files, tuple(flags), out, tuple(written))
 
 
 def _unlisted_outputs(out: Path) -> list[str]:

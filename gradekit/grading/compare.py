@@ -3,19 +3,18 @@
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from functools import lru_cache
-from operator import attrgetter
+
+import numpy as np
 
 from gradekit.errors import GradekitError
 from gradekit.grading.reader import Answer, Issue, Submission
-from gradekit.keys import KeyEntry, Mistake
+from gradekit.keys import KeyEntry, Mistake, half_widths, tolerance_columns, within, wrapped
 from gradekit.roster import Student
 from gradekit.units import factor
 
 _DEG = 180.0 / math.pi
-_isfinite = math.isfinite
 
 METHOD_MISTAKES = frozenset({"static-answer", "no-inertia-torque", "no-gravity"})
 """Catalogued mistakes of method, which feedback without ``--reveal`` may name.
@@ -41,24 +40,19 @@ def generic_mistakes(entry: KeyEntry) -> tuple[Mistake, ...]:
         N·mm for N·m), and for angular units ``degrees for radians`` (v·180/π) or
         ``radians for degrees`` (v·π/180).
     """
-    return tuple([Mistake(name, description, value) for name, description, value in _generic(entry)])
-
-
-def _generic(entry: KeyEntry) -> list[tuple[str, str, float]]:
-    """`generic_mistakes` as (name, description, value), without the records."""
     v = entry.value
     found = []
     if v != 0:
         convention = f" (convention: {entry.sign_convention})" if entry.sign_convention else ""
-        found.append(("sign flipped", f"the sign is reversed{convention}", -v))
-    found.append(("×1000 unit slip", "1000 times too large (e.g. N·mm for N·m)", v * 1000))
-    found.append(("÷1000 unit slip", "1000 times too small (e.g. N·m for N·mm)", v / 1000))
+        found.append(Mistake("sign flipped", f"the sign is reversed{convention}", -v))
+    found.append(Mistake("×1000 unit slip", "1000 times too large (e.g. N·mm for N·m)", v * 1000))
+    found.append(Mistake("÷1000 unit slip", "1000 times too small (e.g. N·m for N·mm)", v / 1000))
     unit = entry.unit.replace(" ", "").lower()
     if unit.startswith("rad"):
-        found.append(("degrees for radians", "given in degrees, asked in radians", v * _DEG))
+        found.append(Mistake("degrees for radians", "given in degrees, asked in radians", v * _DEG))
     elif unit.startswith(("deg", "°")):
-        found.append(("radians for degrees", "given in radians, asked in degrees", v / _DEG))
-    return found
+        found.append(Mistake("radians for degrees", "given in radians, asked in degrees", v / _DEG))
+    return tuple(found)
 
 
 @dataclass(frozen=True)
@@ -66,13 +60,13 @@ class AnswerResult:
     """The verdict on one answer.
 
     ``value`` is the answer in the key's unit (None when missing or unreadable); ``rel_error``
-    is |x − v| / |v| (None when v = 0 or no value); ``message`` says why an answer scored
-    nothing without being wrong (missing, unreadable, wrong kind of unit). ``diagnosis`` is the
-    first catalogued mistake that explains a wrong answer (for the instructor, and for feedback
-    with ``--reveal``); ``method_diagnosis`` the first mistake of method (`METHOD_MISTAKES`) that
-    does, the only one feedback without ``--reveal`` names. ``carried`` is the `gradekit.carry.Carried`
-    a wrong answer matched when graded with carried-forward credit (its ``points`` are then the
-    carried share).
+    is |x − v| / |v| (None when v = 0, for an angle, or with no value); ``message`` says why an
+    answer scored nothing without being wrong (missing, unreadable, wrong kind of unit).
+    ``diagnosis`` is the catalogued mistake that explains a wrong answer best (for the instructor,
+    and for feedback with ``--reveal``); ``method_diagnosis`` is that mistake when it is one of
+    method (`METHOD_MISTAKES`), the only kind feedback without ``--reveal`` names. ``carried`` is the
+    `gradekit.carry.Carried` a wrong answer matched when graded with carried-forward credit (its
+    ``points`` are then the carried share).
     """
 
     entry: KeyEntry
@@ -84,29 +78,10 @@ class AnswerResult:
     abs_error: float | None
     diagnosis: Mistake | None = None
     message: str = ""
-    error: float | None = None  # answer − key in the key's unit, wrapped at 360° for an angle
+    error: float | None = None  # answer − key in the key's unit, wrapped at a full turn for an angle
     method_diagnosis: Mistake | None = None
     carried: object | None = None  # gradekit.carry.Carried
-
-    def __init__(
-        self, entry: KeyEntry, answer: Answer | None, value: float | None, correct: bool, points: float,
-        rel_error: float | None, abs_error: float | None, diagnosis: Mistake | None = None, message: str = "",
-        error: float | None = None, method_diagnosis: Mistake | None = None, carried: object | None = None,
-    ) -> None:
-        # The fields, in order, written directly (as `Answer.__init__`: one verdict per answer of the class).
-        fields = self.__dict__
-        fields["entry"] = entry
-        fields["answer"] = answer
-        fields["value"] = value
-        fields["correct"] = correct
-        fields["points"] = points
-        fields["rel_error"] = rel_error
-        fields["abs_error"] = abs_error
-        fields["diagnosis"] = diagnosis
-        fields["message"] = message
-        fields["error"] = error
-        fields["method_diagnosis"] = method_diagnosis
-        fields["carried"] = carried
+    band: float | None = None  # the half-width of the acceptance band around the key, in the key's unit
 
     @property
     def angle(self) -> bool:
@@ -123,48 +98,18 @@ class ProblemScore:
     max_points: float
 
 
+@dataclass(frozen=True)
 class ResultColumns:
     """What the passes over a whole class (the report's item analysis, copy detection, the carried
     count) read of one grade's results, as columns, one item a result in order: ``keys`` (answer
     keys), ``values`` (None: no value), ``correct`` (verdicts), ``diagnoses`` (the name of each
-    diagnosis, None: none) and ``carried`` (carried forward). Equal to another with the same columns.
-    """
+    diagnosis, None: none) and ``carried`` (carried forward)."""
 
-    _NAMES = ("keys", "values", "correct", "diagnoses", "carried")
-
-    def __init__(
-        self, keys: Sequence[str], values: Sequence[float | None], correct: Sequence[bool],
-        diagnoses: Sequence[str | None], carried: Sequence[bool],
-    ) -> None:
-        self.keys, self.values, self.correct, self.diagnoses, self.carried = keys, values, correct, diagnoses, carried
-
-    def __eq__(self, other: object) -> bool:
-        if not isinstance(other, ResultColumns):
-            return NotImplemented
-        return all(list(getattr(self, n)) == list(getattr(other, n)) for n in self._NAMES)
-
-    __hash__ = None  # (mutable lists)
-
-    def __repr__(self) -> str:
-        return f"ResultColumns({', '.join(f'{n}={getattr(self, n)!r}' for n in self._NAMES)})"
-
-
-class _ColumnsOf(ResultColumns):
-    """`ResultColumns` of built results, each column made as it is read (a pass reads each once; copy
-    detection reads three)."""
-
-    def __init__(self, results: Sequence[AnswerResult]) -> None:
-        self._results = results
-
-    keys = property(lambda self: list(map(_KEY_OF, self._results)))
-    values = property(lambda self: list(map(_VALUE_OF, self._results)))
-    correct = property(lambda self: list(map(_CORRECT_OF, self._results)))
-    diagnoses = property(lambda self: [None if d is None else d.name for d in map(_DIAGNOSIS_OF, self._results)])
-    carried = property(lambda self: [c is not None for c in map(_CARRIED_OF, self._results)])
-
-
-_KEY_OF, _VALUE_OF, _CORRECT_OF = attrgetter("entry.key"), attrgetter("value"), attrgetter("correct")
-_DIAGNOSIS_OF, _CARRIED_OF = attrgetter("diagnosis"), attrgetter("carried")
+    keys: list[str]
+    values: list[float | None]
+    correct: list[bool]
+    diagnoses: list[str | None]
+    carried: list[bool]
 
 
 @dataclass(frozen=True)
@@ -193,16 +138,18 @@ class StudentGrade:
         return 100.0 * self.total / self.max_points if self.max_points else 0.0
 
     def columns(self) -> ResultColumns:
-        """The results as columns (`ResultColumns`): what a pass over the class reads. A grade a helper
-        process sent (`gradekit.grading.parallel.PackedGrade`) has them without building its results."""
-        return _ColumnsOf(self.results)
+        """The results as columns (`ResultColumns`): what a pass over the class reads."""
+        r = self.results
+        return ResultColumns(
+            [x.entry.key for x in r], [x.value for x in r], [x.correct for x in r],
+            [None if x.diagnosis is None else x.diagnosis.name for x in r], [x.carried is not None for x in r],
+        )
 
 
 _DEGREES = ("deg", "degree", "degrees", "°")
 _RADIANS = ("rad", "radian", "radians")
 
 
-@lru_cache(maxsize=1024)
 def _turn(unit: str) -> float:
     """A full turn in *unit* (360 for degrees, 2π for radians), 0 for a unit that is not an angle."""
     unit = unit.replace(" ", "").lower()
@@ -214,128 +161,181 @@ def is_angle(entry: KeyEntry) -> bool:
     return bool(entry.tolerance.period) or bool(_turn(entry.unit))
 
 
+class _Cells:
+    """The cells of a class being graded, as columns (one item a key entry of a student): each
+    entry, what was answered for it, the answer in the key's unit (NaN: none) and why there is none."""
+
+    def __init__(self) -> None:
+        self.entries: list[KeyEntry] = []
+        self.answers: list[Answer | None] = []
+        self.values: list[float] = []
+        self.messages: list[str] = []
+        self._factors: dict[tuple[str, str], float | str] = {}
+
+    def add(self, entry: KeyEntry, answer: Answer | None) -> None:
+        self.entries.append(entry)
+        self.answers.append(answer)
+        value, message = math.nan, ""
+        if answer is None:
+            message = "no answer given"
+        elif answer.number is None:
+            message = answer.issue
+        elif answer.unit and answer.unit != entry.unit:
+            f = self._factor(answer.unit, entry.unit)
+            if isinstance(f, str):
+                message = f
+            else:
+                value = answer.number * f
+        else:
+            value = answer.number
+        self.values.append(value)
+        self.messages.append(message)
+
+    def _factor(self, unit: str, to: str) -> float | str:
+        """The unit's factor to the key's unit, or the message why there is none (each pair once a class)."""
+        got = self._factors.get((unit, to))
+        if got is None:
+            try:
+                got = factor(unit, to)
+            except GradekitError as exc:
+                got = exc.detail
+            self._factors[unit, to] = got
+        return got
+
+
+def _tolerances(entries: Sequence[KeyEntry]) -> tuple[np.ndarray, ...]:
+    return tolerance_columns([e.tolerance for e in entries])
+
+
+def _diagnoses(
+    entries: Sequence[KeyEntry], values: np.ndarray, tolerances: tuple[np.ndarray, ...]
+) -> list[Mistake | None]:
+    """For each wrong answer (*values* in its entry's unit), the catalogued mistake that explains it:
+    of the entry's own (re-solved) mistakes and the `generic_mistakes` it does not already name, those
+    whose band accepts the answer, the closest (in bands; an earlier one on a tie). The closest, not the
+    first: a ×1000 unit slip of a torque can also fall inside a wide band around its static answer."""
+    owner, candidates = [], []
+    for i, e in enumerate(entries):
+        named = {m.name for m in e.mistakes}
+        for m in (*e.mistakes, *(g for g in generic_mistakes(e) if g.name not in named)):
+            if math.isfinite(m.value):
+                owner.append(i)
+                candidates.append(m)
+    found: list[Mistake | None] = [None] * len(entries)
+    if not candidates:
+        return found
+    at = np.array(owner)
+    m = np.array([c.value for c in candidates], float)
+    rel, abs_, sig, period = (t[at] for t in tolerances)
+    fits = within(values[at], m, rel, abs_, sig, period)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        distance = np.abs(values[at] - m) / half_widths(m, rel, abs_, sig)
+    best: dict[int, tuple[float, int]] = {}
+    for j in np.flatnonzero(fits).tolist():
+        d = float(distance[j]) if math.isfinite(distance[j]) else 0.0
+        if owner[j] not in best or d < best[owner[j]][0]:
+            best[owner[j]] = (d, j)
+    for i, (_, j) in best.items():
+        found[i] = candidates[j]
+    return found
+
+
+def _results(cells: _Cells) -> list[AnswerResult]:
+    """Every cell's verdict: one comparison for all of them through the one band rule (`within`), the
+    catalogued mistakes looked for only where the answer is wrong."""
+    entries = cells.entries
+    values = np.array(cells.values, float)
+    keys = np.array([e.value for e in entries], float)
+    tolerances = _tolerances(entries)
+    rel, abs_, sig, period = tolerances
+    correct = within(values, keys, rel, abs_, sig, period).tolist()
+    bands = half_widths(keys, rel, abs_, sig).tolist()
+    turn = np.array([0.0 if e.tolerance.period else _turn(e.unit) for e in entries], float)
+    error = wrapped(wrapped(values - keys, period), turn)
+    wrong = [i for i, ok in enumerate(correct) if not ok and math.isfinite(cells.values[i])]
+    at_wrong = tuple(t[wrong] for t in tolerances)
+    diagnosed = dict(zip(wrong, _diagnoses([entries[i] for i in wrong], values[wrong], at_wrong), strict=True))
+    out = []
+    for i, e in enumerate(entries):
+        answer = cells.answers[i]
+        if not math.isfinite(cells.values[i]):
+            out.append(AnswerResult(e, answer, None, False, 0.0, None, None, message=cells.messages[i], band=bands[i]))
+            continue
+        err = float(error[i])
+        rel_error = abs(err) / abs(e.value) if e.value and not (period[i] or turn[i]) else None
+        if correct[i]:
+            out.append(AnswerResult(e, answer, cells.values[i], True, e.points, rel_error, abs(err), None, "", err,
+                                    band=bands[i]))
+            continue
+        d = diagnosed.get(i)
+        method = d if d is not None and d.name in METHOD_MISTAKES else None
+        out.append(AnswerResult(e, answer, cells.values[i], False, 0.0, rel_error, abs(err), d, "", err, method,
+                                band=bands[i]))
+    return out
+
+
 def diagnose(entry: KeyEntry, value: float, *, method_only: bool = False) -> Mistake | None:
-    """The first catalogued mistake whose value the entry's tolerance accepts *value* around.
-
-    The entry's own (re-solved) mistakes come first, then `generic_mistakes` not already named;
-    with *method_only*, only the mistakes of method (`METHOD_MISTAKES`).
-    """
-    return _diagnoses(entry, value)[1 if method_only else 0]
-
-
-def _diagnoses(entry: KeyEntry, value: float) -> tuple[Mistake | None, Mistake | None]:
-    """(`diagnose`, `diagnose` with *method_only*) in one pass over the candidates.
-
-    The generic mistakes are made only when no mistake of the entry's own explains *value* (none
-    of them is a mistake of method).
-    """
-    if not _isfinite(value):  # accepted around nothing
-        return None, None
-    tol = entry.tolerance
-    if tol.mode == "relative" and not tol.period:
-        rel, floor = tol.rel, tol.abs
-
-        def accepts(answer: float, key: float) -> bool:  # tol.accepts(answer, key), the same operations
-            return abs(answer - key) <= max(rel * abs(key), floor) * (1 + 1e-12)
-    else:
-        accepts = tol.accepts
-    first = None
-    for mistake in entry.mistakes:
-        if _isfinite(mistake.value) and accepts(value, mistake.value):
-            if first is None:
-                first = mistake
-            if mistake.name in METHOD_MISTAKES:
-                return first, mistake
-    if first is not None:
-        return first, None
-    named = {m.name for m in entry.mistakes}
-    for name, description, mistaken in _generic(entry):  # the record made for the one that fits only
-        if name not in named and _isfinite(mistaken) and accepts(value, mistaken):
-            return Mistake(name, description, mistaken), None
-    return None, None
+    """The catalogued mistake that explains *value* (an answer in the entry's unit) best, or None;
+    with *method_only*, only when that mistake is one of method (`METHOD_MISTAKES`)."""
+    found = _diagnoses([entry], np.array([value], float), _tolerances([entry]))[0]
+    if method_only and (found is None or found.name not in METHOD_MISTAKES):
+        return None
+    return found
 
 
 def compare(entry: KeyEntry, answer: Answer | None) -> AnswerResult:
-    """Grade one answer against its key entry.
+    """Grade one answer against its key entry (`grade_class` for one cell).
 
     The answer is converted to the key's unit (a missing unit means the key's unit), accepted
-    by ``entry.tolerance.accepts``, and when wrong, diagnosed with `diagnose`.
-
-    Args:
-        entry: the key entry.
-        answer: what the student wrote for that key, or None.
-
-    Returns:
-        The verdict.
+    within the entry's tolerance band, and when wrong, diagnosed with `diagnose`.
     """
-    if answer is None:
-        return AnswerResult(entry, None, None, False, 0.0, None, None, message="no answer given")
-    if answer.number is None:
-        return AnswerResult(entry, answer, None, False, 0.0, None, None, message=answer.issue)
-    value = answer.number
-    if answer.unit and answer.unit != entry.unit:
-        try:
-            value = answer.number * factor(answer.unit, entry.unit)
-        except GradekitError as exc:
-            return AnswerResult(entry, answer, None, False, 0.0, None, None, message=exc.detail)
-    tol = entry.tolerance
-    key = entry.value
-    error = value - key  # tol.accepts(value, key), with its difference kept (the same operations)
-    if tol.period:
-        error = (error + tol.period / 2) % tol.period - tol.period / 2
-    if _isfinite(value) and _isfinite(key):
-        if tol.mode == "relative":  # tol.band(key), the same operations
-            band = tol.rel * abs(key)
-            if tol.abs > band:
-                band = tol.abs
-        else:
-            band = tol.band(key)
-        correct = abs(error) <= band * (1 + 1e-12)
-    else:
-        correct = False
-    turn = 0.0 if tol.period else _turn(entry.unit)
-    if turn:
-        error = (error + turn / 2) % turn - turn / 2
-    abs_error = abs(error)
-    rel_error = abs_error / abs(entry.value) if entry.value and not (tol.period or turn) else None
-    if correct:
-        return AnswerResult(entry, answer, value, True, entry.points, rel_error, abs_error, None, "", error, None)
-    diagnosis, method = _diagnoses(entry, value)
-    return AnswerResult(entry, answer, value, False, 0.0, rel_error, abs_error, diagnosis, "", error, method)
+    cells = _Cells()
+    cells.add(entry, answer)
+    return _results(cells)[0]
 
 
-def grade_student(
-    student: Student, entries: Sequence[KeyEntry], submission: Submission | None
-) -> StudentGrade:
-    """Grade one student's submission against their key entries.
+def grade_class(
+    students: Sequence[Student], entries: Mapping[str, Sequence[KeyEntry]], chosen: Mapping[str, Submission | None]
+) -> list[StudentGrade]:
+    """Grade every student (in order) against their own key entries: every answer of the class is
+    converted to its key's unit and compared in one pass (`_results`), then each student's grade is
+    put together with the issues of their submission.
 
     Partial credit per problem is the sum of the points of the correct answers. Answers to keys
     the student's key lacks, and keys left unanswered, become issues naming the file.
-
-    Args:
-        student: the student.
-        entries: the student's key entries.
-        submission: their submission, or None when there is none.
-
-    Returns:
-        The grade with one result per key entry, in key order.
     """
-    answers = {a.key: a for a in submission.answers} if submission else {}
+    cells = _Cells()
+    spans = []
+    for s in students:
+        submission = chosen.get(s.student_id)
+        answers = {a.key: a for a in submission.answers} if submission else {}
+        start = len(cells.entries)
+        for entry in entries.get(s.student_id, ()):
+            cells.add(entry, answers.get(entry.key))
+        spans.append((start, len(cells.entries)))
+    results = _results(cells)
+    return [_grade(s, chosen.get(s.student_id), results[a:b], entries.get(s.student_id, ()))
+            for s, (a, b) in zip(students, spans, strict=True)]
+
+
+def grade_student(student: Student, entries: Sequence[KeyEntry], submission: Submission | None) -> StudentGrade:
+    """Grade one student's submission against their key entries (`grade_class` for one student)."""
+    return grade_class([student], {student.student_id: entries}, {student.student_id: submission})[0]
+
+
+def _grade(student: Student, submission: Submission | None, results: list[AnswerResult],
+           entries: Sequence[KeyEntry]) -> StudentGrade:
+    """One student's grade from their verdicts, with their submission's issues."""
     issues = list(submission.issues) if submission else []
-    results = []
-    missing: list[str] = []
-    unread: dict[tuple, list[int | None]] = {}  # (field, message) -> lines, so one cause is one message
-    for entry in entries:
-        result = compare(entry, answers.get(entry.key))
-        results.append(result)
-        if submission is None or not submission.readable:
-            continue
-        answer = result.answer
-        if answer is None:
-            missing.append(entry.key)
-        elif result.value is None:
-            unread.setdefault((answer.field, result.message), []).append(answer.line)
     if submission is not None and submission.readable:
+        missing: list[str] = []
+        unread: dict[tuple, list[int | None]] = {}  # (field, message) -> lines, so one cause is one message
+        for result in results:
+            answer = result.answer
+            if answer is None:
+                missing.append(result.entry.key)
+            elif result.value is None:
+                unread.setdefault((answer.field, result.message), []).append(answer.line)
         for (fld, message), lines in unread.items():
             if len(lines) > 1:
                 shown = sorted(x for x in lines if x is not None)
@@ -352,16 +352,9 @@ def grade_student(
         own = {e.key for e in entries}
         for answer in submission.answers:
             if answer.key not in own:
-                issues.append(
-                    Issue(
-                        submission.path,
-                        answer.line,
-                        "key",
-                        f"expected one of your keys, got {answer.key!r} (not in your assignment)",
-                    )
-                )
-    scores = problem_scores(results)
-    return StudentGrade(student, submission, tuple(results), scores, tuple(issues))
+                issues.append(Issue(submission.path, answer.line, "key",
+                                    f"expected one of your keys, got {answer.key!r} (not in your assignment)"))
+    return StudentGrade(student, submission, tuple(results), problem_scores(results), tuple(issues))
 
 
 def problem_scores(results: Sequence[AnswerResult]) -> tuple[ProblemScore, ...]:

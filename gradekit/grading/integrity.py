@@ -39,7 +39,7 @@ from operator import attrgetter
 import numpy as np
 
 from gradekit.grading.compare import StudentGrade
-from gradekit.keys import KeyColumns, KeyEntry
+from gradekit.keys import KeyEntry, half_widths
 
 KEY_MATCH = "matches classmate's key"
 SHARED_WRONG = "shares wrong answers"
@@ -199,14 +199,13 @@ def _clusters(
 
 
 def _bands(tolerances: list, values: np.ndarray) -> np.ndarray:
-    """`Tolerance.band` of each key value: relative bands as arrays, significant-figure ones each alone."""
-    rel = np.fromiter((t.rel for t in tolerances), float, len(values))
-    floor = np.fromiter((t.abs for t in tolerances), float, len(values))
-    bands = np.maximum(rel * np.abs(values), floor)
-    for i, t in enumerate(tolerances):
-        if t.mode == "sigfigs":
-            bands[i] = t.band(float(values[i]))
-    return bands
+    """Each key value's band (`gradekit.keys.half_widths`, each entry's floor resolved in its ``abs``)."""
+    return half_widths(
+        values,
+        np.array([t.rel for t in tolerances], float),
+        np.array([t.abs for t in tolerances], float),
+        np.array([t.sigfigs if t.mode == "sigfigs" else 0 for t in tolerances], float),
+    )
 
 
 def _best_pairs(hits: list[tuple[np.ndarray, np.ndarray]], n_sub: int, n_all: int, n_trials: int):
@@ -246,9 +245,7 @@ def _best_pairs(hits: list[tuple[np.ndarray, np.ndarray]], n_sub: int, n_all: in
 
 @dataclass(frozen=True)
 class ClassKeys:
-    """The class's keys as copy detection reads them, prepared once from the key entries alone
-    (`class_keys`): a batch makes it while a helper process is still grading (`find_copies`
-    takes it as *prepared*).
+    """The class's keys as copy detection reads them, made from the key entries alone (`class_keys`).
 
     ``everyone`` lists the students with keys in key order, ``col`` their column; ``names`` the
     answer keys in order of first appearance; ``per_key[a]`` the class's keys of answer *a* sorted
@@ -264,11 +261,8 @@ class ClassKeys:
     period: np.ndarray
 
 
-def class_keys(keys: Sequence[KeyEntry] | KeyColumns, correlated: float = 0.7) -> ClassKeys:
-    """The part of copy detection that reads the keys alone (see `ClassKeys`), from the key entries or
-    the same entries as columns (`KeyColumns`, made without building them: the same result)."""
-    if isinstance(keys, KeyColumns):
-        return _columns_keys(keys, correlated)
+def class_keys(keys: Sequence[KeyEntry], correlated: float = 0.7) -> ClassKeys:
+    """The part of copy detection that reads the keys alone (see `ClassKeys`)."""
     sids = list(map(_STUDENT, keys))
     everyone = list(dict.fromkeys(sids))
     col = {sid: i for i, sid in enumerate(everyone)}
@@ -284,30 +278,6 @@ def class_keys(keys: Sequence[KeyEntry] | KeyColumns, correlated: float = 0.7) -
     starts = np.searchsorted(key_ix[by_key], np.arange(len(names) + 1))
     problems = [keys[i].problem for i in by_key[starts[:-1]]]  # each key's first entry
     period = np.array([keys[i].tolerance.period for i in by_key[starts[1:] - 1]], float)  # each key's last entry
-    return _class_keys(everyone, col, names, problems, period, key_ix, cols, values, bands, by_key, starts, correlated)
-
-
-def _columns_keys(keys: KeyColumns, correlated: float) -> ClassKeys:
-    """`class_keys` of entries given as columns: each answer key's problem and tolerance (but its
-    floor) are those of all its entries."""
-    everyone = list(dict.fromkeys(s for s, c in zip(keys.students, keys.counts, strict=True) if c))
-    col = {sid: i for i, sid in enumerate(everyone)}
-    names = list(dict.fromkeys(keys.keys))
-    aid = {name: i for i, name in enumerate(names)}
-    n = len(keys.keys)
-    key_ix = np.fromiter(map(aid.__getitem__, keys.keys), np.int64, n)
-    cols = np.repeat(np.array([col.get(s, 0) for s in keys.students], np.int64), keys.counts)
-    values = np.asarray(keys.values, float)
-    tolerances = [keys.answers[name][1] for name in names]
-    rel = np.array([t.rel for t in tolerances], float)
-    bands = np.maximum(rel[key_ix] * np.abs(values), np.asarray(keys.floors, float))
-    for a in (a for a, t in enumerate(tolerances) if t.mode == "sigfigs"):
-        for i in np.flatnonzero(key_ix == a).tolist():
-            bands[i] = keys.tolerance(i).band(float(values[i]))
-    by_key = np.argsort(key_ix, kind="stable")
-    starts = np.searchsorted(key_ix[by_key], np.arange(len(names) + 1))
-    problems = [keys.answers[name][0] for name in names]
-    period = np.array([t.period for t in tolerances], float)
     return _class_keys(everyone, col, names, problems, period, key_ix, cols, values, bands, by_key, starts, correlated)
 
 
@@ -337,14 +307,13 @@ _KEYS, _VALUES, _CORRECTS = attrgetter("keys"), attrgetter("values"), attrgetter
 
 def find_copies(
     grades: Sequence[StudentGrade],
-    keys: Sequence[KeyEntry] | KeyColumns,
+    keys: Sequence[KeyEntry],
     *,
     alpha: float = 1e-3,
     min_matches: int = 2,
     min_shared: int = 3,
     correlated: float = 0.7,
     dense: float = 0.02,
-    prepared: ClassKeys | None = None,
 ) -> list[IntegrityFlag]:
     """Flag submissions copied from a classmate: their key matched, or wrong answers shared.
 
@@ -355,7 +324,7 @@ def find_copies(
     Args:
         grades: the graded students (those without a submission are skipped).
         keys: every student's key entries (students without a submission are still classmates
-            whose key can be copied), or the same as columns (`KeyColumns`).
+            whose key can be copied).
         alpha: the largest corrected chance that is flagged.
         min_matches: at least this many answers in a classmate's bands.
         min_shared: at least this many identical wrong answers.
@@ -364,16 +333,15 @@ def find_copies(
         dense: an answer that a random classmate's band holds with a larger chance than this
             is left out of the band look (too common to be evidence; it costs the most to
             index), and kept in the sharper look at the digits given.
-        prepared: ``class_keys(keys, correlated)`` when already made.
 
     Returns:
         Key matches (one per flagged student, naming the classmate) then shared wrong answers
         (one per pair), each with its corrected chance.
     """
     subs = [g for g in grades if g.submission is not None]
-    if not subs or not (keys.keys if isinstance(keys, KeyColumns) else keys):
+    if not subs or not keys:
         return []
-    ck = prepared if prepared is not None else class_keys(keys, correlated)
+    ck = class_keys(keys, correlated)
     everyone, col, names, trial_of, per_key, period = ck.everyone, ck.col, ck.names, ck.trial_of, ck.per_key, ck.period
     extra = [g.student.student_id for g in subs if g.student.student_id not in col]
     if extra:  # students with a submission but no key (still classmates of no one's key)
@@ -391,7 +359,7 @@ def find_copies(
     # every result as columns (student row, answer, value, wrong for them), then those with a finite value
     # of an answer of the keys
     columns = [g.columns() for g in subs]
-    keys_of = list(map(_KEYS, columns))  # (each column read once: a built grade's are made as they are read)
+    keys_of = list(map(_KEYS, columns))
     lengths = list(map(len, keys_of))
     n = sum(lengths)
     g_row = np.repeat(np.arange(n_sub), lengths)

@@ -53,23 +53,6 @@ class Answer:
     field: str = "value"
     issue: str = ""
 
-    def __init__(
-        self, key: str, raw: str, raw_unit: str, number: float | None, unit: str, line: int, field: str = "value",
-        issue: str = "",
-    ) -> None:
-        # The fields, in order (a test holds this to the dataclass's fields). The generated __init__
-        # of a frozen dataclass sets each through object.__setattr__, most of the cost of the
-        # hundred thousand answers of a class; the instance dict is written directly instead.
-        fields = self.__dict__
-        fields["key"] = key
-        fields["raw"] = raw
-        fields["raw_unit"] = raw_unit
-        fields["number"] = number
-        fields["unit"] = unit
-        fields["line"] = line
-        fields["field"] = field
-        fields["issue"] = issue
-
 
 @dataclass(frozen=True)
 class Submission:
@@ -354,10 +337,6 @@ def read_file(
         return fail(f"expected a small CSV (under 2 MB), got {exc}")
     except OSError as exc:
         return fail(f"expected a readable file, got {exc.strerror or exc}")
-    if named is not None:
-        usual = _usual(data, display, named, ids, keys, mtime)
-        if usual is not None:
-            return usual
     if not data.strip():
         return fail(f"expected a CSV with columns {EXPECTED}, got an empty file")
     text, _ = decode_bytes(data)
@@ -373,47 +352,6 @@ def read_file(
         return fail(f"expected a CSV with columns {EXPECTED}, got only blank lines")
     reader = _Layout(display, found, ids, keys, delimiter, mtime)
     return reader.read(rows)
-
-
-_USUAL_HEADER = (EXPECTED + "\n").encode("ascii")
-_UNUSUAL = re.compile(rb'[^!#-~\n]')  # a byte other than printable ASCII without space and quote, or LF
-
-
-def _usual(
-    data: bytes, display: str, named: str, ids: IdIndex, keys: KeyIndex, mtime: float
-) -> list[Submission] | None:
-    """What `read_file` reads from the usual file, or None for any other (then read by the full reader).
-
-    The usual file: the header `EXPECTED` as its first line, then rows of four cells, each row's id
-    the file name's student's id and its key one of the keys, both as written, each key once (blank
-    rows allowed); printable ASCII without spaces or quotes, lines ended by LF. For it, every step of
-    the full reader takes its simplest branch (no BOM, UTF-8, not binary, the comma, a row per line
-    and no cell to strip, the long layout with every row the student's), which this follows: each
-    value cell read by the same `_Layout._cell` (a plain number directly, as `_Layout._long` does).
-    """
-    if not data.startswith(_USUAL_HEADER) or _UNUSUAL.search(data) or len(data) >= csv.field_size_limit():
-        return None
-    known = keys.keys
-    answers: dict[str, Answer] = {}
-    layout = None
-    for line, row in enumerate(data.decode("ascii").split("\n")[1:], 2):
-        cells = row.split(",")
-        if len(cells) != 4 or cells[0] != named or cells[1] not in known or cells[1] in answers:
-            if row.strip(","):  # not a blank row
-                return None
-            continue
-        _, key, raw, raw_unit = cells
-        if len(raw) <= MAX_CELL and len(raw_unit) <= units.MAX_LENGTH and _PLAIN_NUMBER.fullmatch(raw):
-            number = float(raw)
-            if math.isfinite(number):
-                answers[key] = Answer(key, raw, raw_unit, number, raw_unit, line, "unit")
-                continue
-        if layout is None:
-            layout = _Layout(display, {named}, ids, keys, ",", mtime)
-        answers[key] = layout._cell(key, raw, raw_unit, line)
-    if not answers:
-        return None
-    return [Submission(display, named, tuple(answers.values()), (), (), True, mtime, False, named, ())]
 
 
 class _NotRegular(OSError):
@@ -577,8 +515,6 @@ class _Layout:
         row_ids: list[tuple[int, str, str | None]] = []  # line, raw id, roster id
         parsed: list[tuple[int, str | None, Answer | Issue]] = []
         matched: dict[str, str | None] = {"": None}  # the id cell repeats on every row
-        known = self.keys.keys
-        last = max(key_col, value_col, -1 if unit_col is None else unit_col)
         for line, row in rows:
             raw_id = row[id_col] if id_col is not None and id_col < len(row) else ""
             sid = matched[raw_id] if raw_id in matched else matched.setdefault(raw_id, self.ids.match(raw_id))
@@ -590,14 +526,6 @@ class _Layout:
                 msg = f"expected {width} cells, got {len(row)}{hint}"
                 parsed.append((line, sid, self.issue(line, "row", msg)))
                 continue
-            if last < len(row) and row[key_col] in known:  # most rows: `_answer` of a key as written and,
-                raw = row[value_col]  # with a plain number, `_cell` and `parse_value` take their first branch
-                raw_unit = "" if unit_col is None else row[unit_col]
-                if len(raw) <= MAX_CELL and len(raw_unit) <= units.MAX_LENGTH and _PLAIN_NUMBER.fullmatch(raw):
-                    number = float(raw)
-                    if math.isfinite(number):
-                        parsed.append((line, sid, Answer(row[key_col], raw, raw_unit, number, raw_unit, line, "unit")))
-                        continue
             parsed.append((line, sid, self._answer(line, row, key_col, value_col, unit_col)))
         owners = self._owners(row_ids, drafts)
         for (line, _sid, item), owner in zip(parsed, owners, strict=True):
