@@ -10,6 +10,7 @@ from pathlib import Path
 
 from gradekit.csvsafe import StagedFolder, write_staged
 from gradekit.errors import GradekitError
+from gradekit.grading.archive import submissions_folder
 from gradekit.grading.compare import StudentGrade, grade_class, grade_student
 from gradekit.grading.exports import (
     _md_cell,
@@ -118,7 +119,8 @@ def printable(path: str) -> str:
 
 
 def read_submissions(
-    submissions: Path, students: Sequence[Student], keys: Sequence[KeyEntry], *, skip: Path | None = None
+    submissions: Path, students: Sequence[Student], keys: Sequence[KeyEntry], *, skip: Path | None = None,
+    shown: str | None = None,
 ) -> Intake:
     """Read every file below *submissions* and choose one submission per student.
 
@@ -132,6 +134,7 @@ def read_submissions(
         students: the roster.
         keys: every student's key entries (their key names are the ones a file may answer).
         skip: a folder inside *submissions* not to read (the output folder).
+        shown: how the folder is named in messages (an LMS zip's name when it was unpacked); the folder.
 
     Returns:
         The chosen submission per student id and one record per file.
@@ -139,7 +142,7 @@ def read_submissions(
     Raises:
         GradekitError: *submissions* is not a readable folder.
     """
-    files, ignored = _walk(submissions, skip)
+    files, ignored = _walk(submissions, skip, shown)
     ids = IdIndex(students)
     key_index = KeyIndex(e.key for e in keys)
     per_file = [(display, read_file(path, display, relative, ids, key_index)) for path, display, relative in files]
@@ -148,12 +151,18 @@ def read_submissions(
     return Intake(chosen, tuple(records + ignored))
 
 
-def _walk(submissions: Path, skip: Path | None) -> tuple[list[tuple[Path, str, str]], list[FileRecord]]:
+def _walk(
+    submissions: Path, skip: Path | None, shown: str | None = None
+) -> tuple[list[tuple[Path, str, str]], list[FileRecord]]:
     """The regular files below *submissions* to read, as (path, path to print, path below the
     folder), and a record of each thing that is not read (hidden, special, linked, *skip*)."""
     if not submissions.is_dir():
         raise GradekitError("expected a folder of submission CSVs, got none there", path=str(submissions))
     skip_real = os.path.realpath(skip) if skip is not None else None
+
+    def _shown(path: str) -> str:
+        return printable(path if shown is None else os.path.join(shown, os.path.relpath(path, submissions)))
+
     files: list[tuple[Path, str, str]] = []
     ignored: list[FileRecord] = []
     for root, dirs, names in os.walk(submissions):
@@ -163,13 +172,13 @@ def _walk(submissions: Path, skip: Path | None) -> tuple[list[tuple[Path, str, s
             full = os.path.join(root, d)
             if os.path.islink(full):
                 dirs.remove(d)
-                ignored.append(FileRecord(printable(full) + os.sep, "skipped", "a symbolic link: not followed"))
+                ignored.append(FileRecord(_shown(full) + os.sep, "skipped", "a symbolic link: not followed"))
             elif _hidden(d) or (skip_real and os.path.realpath(full) == skip_real):
                 dirs.remove(d)
-                ignored.append(FileRecord(printable(full) + os.sep, "ignored", "folder not read"))
+                ignored.append(FileRecord(_shown(full) + os.sep, "ignored", "folder not read"))
         for name in sorted(names):
             path = Path(root) / name
-            display = printable(str(path))
+            display = _shown(str(path))
             if _hidden(name):
                 ignored.append(FileRecord(display, "ignored", "hidden or system file"))
                 continue
@@ -344,7 +353,7 @@ def grade_batch(
     Args:
         keys: every student's key entries.
         students: the roster.
-        submissions: the folder of submission files.
+        submissions: the folder of submission files, or an LMS's zip of them (`submissions_folder`).
         out: the output folder (created; must be empty or a previous gradekit output).
         assignment_title: the assignment's name (the LMS grade column and the headings).
         reveal: show the correct values in the feedback.
@@ -369,7 +378,9 @@ def grade_batch(
         raise GradekitError("expected a roster with students, got none")
     titles = dict(problem_titles or {})
     skip = out if out.resolve().is_relative_to(submissions.resolve()) else None
-    intake = read_submissions(submissions, students, keys, skip=skip)
+    with submissions_folder(submissions) as folder:
+        shown = None if folder == submissions else str(submissions)
+        intake = read_submissions(folder, students, keys, skip=skip, shown=shown)
     _check_out(out, submissions)
     entries = _entries(keys)
     grades = grade_class(students, entries, intake.chosen)

@@ -176,9 +176,13 @@ class IdIndex:
             if sid:
                 found.add(sid)
         stem = re.sub(r"\.[A-Za-z0-9]{1,5}$", "", parts[-1]) if parts else ""
+        stem = re.sub(r"\s*\(\d+\)$", "", stem)  # a browser's copy counter: "answers (2).csv"
         words = [stem, *re.split(r"[\s_]+", stem), *re.split(r"[\s_.,()\[\]-]+", stem)]
         for word in words:
-            sid = self.match(word, lms=False) if word else None
+            if word.isdigit():  # a number names a student only as written: "001" is not student 1
+                sid = self.ids.get(word)
+            else:
+                sid = self.match(word, lms=False) if word else None
             if sid:
                 found.add(sid)
         return found
@@ -487,10 +491,19 @@ class _Layout:
         if key_col is not None and value_col is not None:
             unit_col = _col(header, _UNIT_COLS)
             return self._long(rows[1:], id_col, key_col, value_col, unit_col, len(header))
-        wide = {i: self.keys.match(c) for i, c in enumerate(header_cells)}
-        wide = {i: k for i, k in wide.items() if k is not None}
+        wide: dict[int, str] = {}
+        repeated: list[Issue] = []
+        first: dict[str, int] = {}
+        for i, cell in enumerate(header_cells):
+            key = self.keys.match(cell)
+            if key is not None and key in first:
+                repeated.append(self.issue(rows[0][0], cell, f"expected each key once, got {key!r} again (first in "
+                                                             f"column {first[key] + 1}; this column is ignored)"))
+            elif key is not None:
+                first[key] = i
+                wide[i] = key
         if len(wide) >= 2 or (wide and id_col is not None):
-            return self._wide(rows[1:], id_col, wide, header_cells)
+            return self._wide(rows[1:], id_col, wide, header_cells, repeated)
         # No header: find the column holding keys in the first row.
         for i, cell in enumerate(header_cells):
             if self.keys.match(cell) is not None and i + 1 < len(header_cells):
@@ -625,6 +638,7 @@ class _Layout:
         id_col: int | None,
         wide: dict[int, str],
         header: list[str],
+        repeated: list[Issue],
     ) -> list[Submission]:
         drafts: dict[str | None, _Draft] = {}
         named = self.named
@@ -639,6 +653,7 @@ class _Layout:
                 for i, key in wide.items():
                     raw = row[i] if i < len(row) else ""
                     draft.answers[key] = replace(self._cell(key, raw, "", line), field=header[i])
+            draft.issues.extend(repeated)
             return self._finish(drafts)
         class_wide = len(rows) > 1
         for line, row in rows:
@@ -660,6 +675,7 @@ class _Layout:
             for i, key in wide.items():
                 raw = row[i] if i < len(row) else ""
                 draft.answers[key] = replace(self._cell(key, raw, "", line), field=header[i])
+            draft.issues.extend(repeated)
         return self._finish(drafts, class_wide=class_wide)
 
     def _finish(

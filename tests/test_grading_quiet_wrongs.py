@@ -1,0 +1,162 @@
+"""Ordinary actions that used to grade wrongly without a word (issue 26, grading side), driven through
+the command line on a class built in the test: an LMS zip, another assignment's manifest, a repeated
+column, browser copy names, and the diagnosis that explains an answer best."""
+
+from __future__ import annotations
+
+import csv
+import json
+import zipfile
+from pathlib import Path
+
+import pytest
+from click.testing import CliRunner
+
+from gradekit.cli import main
+
+IDS = ["1", "2", "1001"]
+
+
+def _assignment(folder: Path, salt: str) -> Path:
+    f = folder / f"hw-{salt}.yaml"
+    f.write_text(
+        f'title: "HW {salt}"\ncourse: MEG373\nsalt: "{salt}"\nproblems:\n  - {{id: ch5-ex5-3, points: 10}}\n',
+        encoding="utf-8",
+    )
+    return f
+
+
+def _generate(asg_file: Path, ids: list[str], out: Path) -> list:
+    """The keys and manifest `generate` writes (keys.json, manifest.json), without the PDFs."""
+    from gradekit import frozen
+    from gradekit.assignment import class_keys, load_assignment, manifest, seeds_of
+
+    asg = load_assignment(asg_file)
+    keys, variants = class_keys(asg, ids)
+    text = frozen.dumps(keys)
+    out.mkdir()
+    (out / "keys.json").write_text(text, encoding="utf-8")
+    seeds = {s: seeds_of(asg, s, {label: v.redraw for label, v in variants[s].items()}) for s in ids}
+    (out / "manifest.json").write_text(json.dumps(manifest(asg, ids, seeds, text)), encoding="utf-8")
+    return keys
+
+
+@pytest.fixture(scope="module")
+def course(tmp_path_factory):
+    root = tmp_path_factory.mktemp("quiet")
+    asg = _assignment(root, "a")
+    other = _assignment(root, "b")
+    with open(root / "roster.csv", "w", newline="", encoding="utf-8") as f:
+        w = csv.writer(f)
+        w.writerow(["student_id", "name"])
+        w.writerows([[sid, f"Student {sid}"] for sid in IDS])
+    keys = _generate(asg, IDS, root / "gen")
+    _generate(other, IDS, root / "gen-b")
+    return root, asg, keys
+
+
+def _grade(root: Path, asg: Path, subs: Path, out: Path, manifest: Path | None = None):
+    args = ["grade", str(asg), "--roster", str(root / "roster.csv"), "--submissions", str(subs), "--out", str(out),
+            "--manifest", str(manifest or root / "gen" / "manifest.json")]
+    return CliRunner().invoke(main, args)
+
+
+def _rows(keys, sid: str, scale: float = 1.0) -> list[str]:
+    return [f"{sid},{e.key},{e.value * scale:.6g},{e.unit}" for e in keys if e.student_id == sid]
+
+
+def _grades(out: Path) -> dict[str, str]:
+    with open(out / "grades.csv", newline="", encoding="utf-8") as f:
+        return {r["student_id"]: r["percent"] for r in csv.DictReader(f)}
+
+
+def test_an_lms_zip_grades_as_its_folder(course, tmp_path):
+    """`--submissions` takes the zip an LMS gives as it is: the same grades as the folder unzipped."""
+    root, asg, keys = course
+    subs = tmp_path / "subs"
+    subs.mkdir()
+    for i, sid in enumerate(IDS):
+        lines = ["student_id,key,value,unit", *_rows(keys, sid, 1.0 if i != 1 else 1.2)]
+        (subs / f"{sid}_answers.csv").write_text("\n".join(lines) + "\n", encoding="utf-8")
+    with zipfile.ZipFile(tmp_path / "all.zip", "w") as z:
+        for f in sorted(subs.iterdir()):
+            z.write(f, f"submissions/{f.name}")
+    folder = _grade(root, asg, subs, tmp_path / "from-folder")
+    zipped = _grade(root, asg, tmp_path / "all.zip", tmp_path / "from-zip")
+    assert folder.exit_code == 0 and zipped.exit_code == 0, zipped.output
+    assert _grades(tmp_path / "from-zip") == _grades(tmp_path / "from-folder")
+    assert float(_grades(tmp_path / "from-zip")["1"]) == 100.0
+    assert float(_grades(tmp_path / "from-zip")["2"]) < 100.0
+    report = (tmp_path / "from-zip" / "report.md").read_text(encoding="utf-8")
+    assert "gradekit-submissions-" not in report  # the zip's name, not the temporary folder, is shown
+
+
+def test_another_assignments_manifest_is_refused_naming_both(course, tmp_path):
+    root, asg, keys = course
+    subs = tmp_path / "subs"
+    subs.mkdir()
+    (subs / "1.csv").write_text("\n".join(["student_id,key,value,unit", *_rows(keys, "1")]) + "\n", encoding="utf-8")
+    result = _grade(root, asg, subs, tmp_path / "out", root / "gen-b" / "manifest.json")
+    assert result.exit_code == 1
+    message = result.output.strip().splitlines()[-1]
+    assert "salt 'a'" in message and "salt 'b'" in message and "manifest.json" in message
+    assert "Traceback" not in result.output
+    assert not (tmp_path / "out").exists()
+
+
+def test_a_repeated_wide_column_keeps_the_first_and_says_so(course, tmp_path):
+    root, asg, keys = course
+    mine = [e for e in keys if e.student_id == "1001"]
+    first = mine[0]
+    header = ["student_id", *(e.key for e in mine), first.key]
+    values = ["1001", *(f"{e.value:.6g}" for e in mine), f"{first.value * 3:.6g}"]
+    subs = tmp_path / "subs"
+    subs.mkdir()
+    (subs / "1001.csv").write_text(",".join(header) + "\n" + ",".join(values) + "\n", encoding="utf-8")
+    result = _grade(root, asg, subs, tmp_path / "out")
+    assert result.exit_code == 0, result.output
+    assert float(_grades(tmp_path / "out")["1001"]) == 100.0  # the first column counts
+    feedback = (tmp_path / "out" / "feedback" / "1001.md").read_text(encoding="utf-8")
+    assert f"expected each key once, got {first.key!r} again" in feedback.replace("\\", "")
+
+
+def test_browser_copy_counters_name_no_student(course, tmp_path):
+    """`answers (1).csv` and `answers (2).csv` from a browser's downloads are not students 1 and 2, and
+    `001.csv` is not student 1: a number in a file name names a student only as written."""
+    root, asg, keys = course
+    subs = tmp_path / "subs"
+    subs.mkdir()
+    header = "student_id,key,value,unit"
+    (subs / "answers (1).csv").write_text("\n".join([header, *_rows(keys, "1001")]) + "\n", encoding="utf-8")
+    (subs / "answers (2).csv").write_text("\n".join([header, *_rows(keys, "2")]) + "\n", encoding="utf-8")
+    (subs / "001.csv").write_text("\n".join([header, *_rows(keys, "1001")]) + "\n", encoding="utf-8")
+    result = _grade(root, asg, subs, tmp_path / "out")
+    assert result.exit_code == 0, result.output
+    grades = _grades(tmp_path / "out")
+    assert float(grades["1001"]) == 100.0  # by the id column inside, the file names naming no one
+    assert float(grades["2"]) == 100.0
+    assert grades["1"] in ("", "0", "0.0")  # nobody's file
+
+
+def test_each_catalogued_mistake_is_named_for_its_own_value_on_every_problem(tmp_path):
+    """A wrong answer equal to one catalogued mistake's value is diagnosed as that mistake (or one with
+    the same value), on every problem of the bank: a ×1000 unit slip of a torque is a unit slip even
+    where the static answer's band is wide enough to hold it too."""
+    from gradekit.assignment import class_keys, load_assignment
+    from gradekit.bank.registry import load_bank
+    from gradekit.grading import diagnose, generic_mistakes
+
+    items = "".join(f"  - {{id: {pid}, points: 1, label: q{i}}}\n" for i, pid in enumerate(sorted(load_bank())))
+    f = tmp_path / "all.yaml"
+    f.write_text(f'title: all\ncourse: MEG373\nsalt: "order"\nproblems:\n{items}', encoding="utf-8")
+    keys, _ = class_keys(load_assignment(f), ["s1"])
+    checked = 0
+    for e in keys:
+        named = {m.name for m in e.mistakes}
+        for m in (*e.mistakes, *(g for g in generic_mistakes(e) if g.name not in named)):
+            if m.value == e.value:
+                continue
+            found = diagnose(e, m.value)
+            assert found is not None and found.value == pytest.approx(m.value, rel=1e-12, abs=0), (e.key, m.name)
+            checked += 1
+    assert checked > 200
