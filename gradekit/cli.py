@@ -233,7 +233,8 @@ def bank_check(ids: tuple[str, ...], variants: int, class_size: int, bank: str |
 @main.command()
 @click.argument("assignment", type=click.Path(exists=True, dir_okay=False))
 @click.option("--roster", required=True, type=click.Path(exists=True, dir_okay=False), help="Class roster CSV.")
-@click.option("--submissions", required=True, type=click.Path(file_okay=False), help="Folder of submitted CSVs.")
+@click.option("--submissions", required=True, type=click.Path(),
+              help="Folder of submitted CSVs, or the zip an LMS's 'download all submissions' gives.")
 @click.option("--out", required=True, type=click.Path(file_okay=False), help="Output folder.")
 @click.option(
     "--manifest",
@@ -344,3 +345,102 @@ def generate(assignment: str, roster: str, out: str, jobs: int, student: str | N
     for w in summary.warnings:
         log.warning("warning: %s", w)
     log.info("wrote documents for %d student(s) to %s in %.1f s", summary.students, out, summary.seconds)
+
+
+# --- the online page (gradekit.web) ---------------------------------------------------------------
+
+_db_opt = click.option("--db", default=None, metavar="URL",
+                       help="postgresql://user@host/db (default: SQLite serve.sqlite3 beside the manifest).")
+
+
+def _web_service(db: str | None, manifest: str | None, assignment: str | None = None, roster: str | None = None,
+                 create_secret: bool = False):
+    """The online page's service: the course given (recorded in the database) or the one recorded there."""
+    from gradekit.web.grading import Paths
+    from gradekit.web.service import open_service
+
+    if db is None and manifest is None:
+        raise click.UsageError("give --db URL or --manifest (the SQLite database beside it)")
+    paths = None
+    if assignment is not None:
+        paths = Paths(str(Path(assignment).resolve()), str(Path(roster).resolve()), str(Path(manifest).resolve()))
+    return open_service(db, paths, manifest=Path(manifest) if manifest else None, create_secret=create_secret)
+
+
+@main.command()
+@click.argument("assignment", type=click.Path(exists=True, dir_okay=False))
+@click.option("--roster", required=True, type=click.Path(exists=True, dir_okay=False), help="Class roster CSV.")
+@click.option("--manifest", required=True, type=click.Path(exists=True, dir_okay=False),
+              help="manifest.json of generate: the class and its frozen keys.")
+@_db_opt
+@click.option("--host", default="127.0.0.1", show_default=True, help="Address to listen on.")
+@click.option("--port", type=click.IntRange(0, 65535), default=8000, show_default=True)
+@click.option("--prepare", is_flag=True, help="Create or migrate the database, record the course, and exit.")
+def serve(assignment: str, roster: str, manifest: str, db: str | None, host: str, port: int, prepare: bool) -> None:
+    """Serve the page where students type or upload their answers and are graded at once."""
+    service = _web_service(db, manifest, assignment, roster, create_secret=True)
+    if prepare:
+        service.close()
+        log.info("database ready; the course is recorded in it")
+        return
+    from gradekit.web.app import serve as run
+
+    log.info("serving %s on http://%s:%d/ (Ctrl-C stops)", service.course.assignment.title, host, port)
+    run(service, host, port)
+
+
+@main.command("serve-passwd")
+@click.option("--manifest", type=click.Path(exists=True, dir_okay=False), default=None,
+              help="manifest.json the page serves (its SQLite database).")
+@_db_opt
+@click.option("--password-stdin", is_flag=True, help="Read the password from the first line of standard input.")
+def serve_passwd(manifest: str | None, db: str | None, password_stdin: bool) -> None:
+    """Set the instructor's password of the online page (stored as an scrypt hash, never in clear)."""
+    if password_stdin:
+        password = sys.stdin.readline().rstrip("\r\n")
+    else:
+        password = click.prompt("Instructor password", hide_input=True, confirmation_prompt=True)
+    if len(password) < 8:
+        raise GradekitError(f"expected a password of at least 8 characters, got {len(password)}", field="password")
+    if db is None and manifest is None:
+        raise click.UsageError("give --db URL or --manifest (the SQLite database beside it)")
+    from gradekit.web.service import set_password
+
+    set_password(db, Path(manifest) if manifest else None, password)
+    log.info("instructor password set")
+
+
+@main.command("serve-codes")
+@click.option("--roster", required=True, type=click.Path(exists=True, dir_okay=False), help="Class roster CSV.")
+@click.option("--manifest", required=True, type=click.Path(exists=True, dir_okay=False),
+              help="manifest.json of generate (the secret is kept beside it).")
+@click.option("--out", required=True, type=click.Path(dir_okay=False),
+              help="CSV to write: student_id,name,access_code.")
+def serve_codes(roster: str, manifest: str, out: str) -> None:
+    """Write each student's access code of the online page (for a mail merge; keep the file private)."""
+    from gradekit.csvsafe import write_csv
+    from gradekit.roster import read_roster
+    from gradekit.web.access import access_code, load_secret
+
+    secret = load_secret(Path(manifest), create=True)
+    students = read_roster(Path(roster))
+    write_csv(Path(out), ["student_id", "name", "access_code"],
+              [[s.student_id, s.display, access_code(secret, s.student_id)] for s in students])
+    log.info("wrote %d access codes to %s", len(students), out)
+
+
+@main.command()
+@_db_opt
+@click.option("--manifest", type=click.Path(exists=True, dir_okay=False), default=None,
+              help="manifest.json the page serves (its SQLite database).")
+@click.option("--out", required=True, type=click.Path(file_okay=False), help="Folder for submissions/ and graded/.")
+def export(db: str | None, manifest: str | None, out: str) -> None:
+    """Grade the online page's current answers as gradekit grade does: OUT/submissions (the answers CSVs),
+    OUT/graded (grades.csv, canvas.csv, moodle.csv, feedback, report.md) and OUT/attempts.csv."""
+    service = _web_service(db, manifest)
+    try:
+        summary = service.export(Path(out))
+    finally:
+        service.close()
+    log.info("graded %d student(s) with answers; %d flag(s); results in %s", summary["graded"], len(summary["flags"]),
+             Path(out) / "graded")
