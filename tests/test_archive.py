@@ -147,3 +147,62 @@ def test_a_file_that_is_no_zip_is_refused(tmp_path: Path) -> None:
     broken.write_bytes(b"PK\x03\x04" + b"\x00" * 40)
     with pytest.raises(GradekitError, match=r"broken\.zip: expected a zip file, got one that cannot be read"):
         unpack(broken, tmp_path / "o")
+
+
+def test_the_cli_grades_an_lms_zip_as_its_folder_and_refuses_a_bomb(tmp_path: Path) -> None:
+    """`gradekit grade --submissions` given the zip as Moodle and Canvas name its files (participant
+    folders old and new, Canvas names with LATE and a resubmission): the folder's grades, LMS imports
+    and feedback, byte for byte; a zip bomb ends the command with one line."""
+    from click.testing import CliRunner
+
+    from gradekit.cli import main
+
+    (tmp_path / "hw.yaml").write_text(
+        "title: HW 1\ncourse: MEG373\nsalt: zip-test\nproblems:\n  - {id: ch5-ex5-1, points: 10}\n", encoding="utf-8")
+    (tmp_path / "roster.csv").write_text(
+        "student_id,name,email\n1001,Selam Haile,s@uni.edu\n1002,Lars de Vries,l@uni.edu\n1003,Ada Lee,a@uni.edu\n",
+        encoding="utf-8")
+    from gradekit.assignment import keys_for, load_assignment, student_variant
+
+    asg = load_assignment(tmp_path / "hw.yaml")
+    item = asg.items[0]
+    values = {sid: keys_for(asg, item, sid, student_variant(asg, item, sid), with_mistakes=False)
+              for sid in ("1001", "1002", "1003")}
+    names = {
+        "Selam Haile_501_assignsubmission_file_/answers.csv": ("1001", 1.0),
+        "Lars de Vries_502_assignsubmission_file/answers.csv": ("1002", 1.3),  # Moodle 4.1: no trailing "_"
+        "leeada_late_777_9001_answers.csv": ("1003", -1.0),
+        "leeada_late_777_9002_answers-1.csv": ("1003", 1.0),  # the resubmission: newer
+    }
+    folder = tmp_path / "download"
+    with zipfile.ZipFile(tmp_path / "download.zip", "w", zipfile.ZIP_DEFLATED) as z:
+        for i, (name, (sid, scale)) in enumerate(names.items()):
+            path = folder / name
+            path.parent.mkdir(parents=True, exist_ok=True)
+            rows = [f"{sid},{e.key},{e.value * scale:.6g},{e.unit}" for e in values[sid]]
+            path.write_text("\n".join(["student_id,key,value,unit", *rows]) + "\n", encoding="utf-8")
+            stamp = time.mktime((2026, 11, 20, 10, i, 0, 0, 0, -1))
+            os.utime(path, (stamp, stamp))
+            z.write(path, name)
+    runner = CliRunner()
+
+    def grade(submissions: Path, out: str):
+        return runner.invoke(main, ["grade", str(tmp_path / "hw.yaml"), "--roster", str(tmp_path / "roster.csv"),
+                                    "--submissions", str(submissions), "--out", str(tmp_path / out)])
+
+    plain, zipped = grade(folder, "from-folder"), grade(tmp_path / "download.zip", "from-zip")
+    assert plain.exit_code == 0 and zipped.exit_code == 0, zipped.output
+    percents = (tmp_path / "from-zip" / "grades.csv").read_text(encoding="utf-8").splitlines()[1:]
+    assert [row.rsplit(",", 1)[-1] for row in percents] == ["100.0", "0.0", "100.0"]  # 1002 is 30 % off
+    for name in ("grades.csv", "canvas.csv", "moodle.csv"):
+        assert (tmp_path / "from-zip" / name).read_bytes() == (tmp_path / "from-folder" / name).read_bytes()
+    for page in (tmp_path / "from-folder" / "feedback").iterdir():
+        assert (tmp_path / "from-zip" / "feedback" / page.name).read_bytes() == page.read_bytes()
+    canvas = (tmp_path / "from-zip" / "canvas.csv").read_text(encoding="utf-8").splitlines()
+    assert canvas[3].startswith("Ada Lee,777,1003,")  # her Canvas user id, from the name Canvas gave her file
+    bomb(tmp_path / "bomb.zip", 20_000_000)
+    refused = grade(tmp_path / "bomb.zip", "from-bomb")
+    assert refused.exit_code == 1 and "Traceback" not in refused.output
+    assert refused.output.strip().splitlines() == [
+        f"Error: {tmp_path / 'bomb.zip'}: expected a zip that unpacks at most 200 times its size, got "
+        + refused.output.split("got ", 1)[1].strip()]
