@@ -79,6 +79,8 @@ class Assignment:
     feedback: str = "direction"
     carry_credit: float | None = None  # the problems' default carry-forward credit (see Item)
     online: Online = dataclasses.field(default_factory=lambda: Online())  # `gradekit serve`'s rules
+    # what `grade` writes (`gradekit.grading.exports.EXPORTS` names); None: the default set
+    exports: tuple[str, ...] | None = None
 
     def carry(self, forced: bool = False) -> dict[str, float]:
         """Each item's carry-forward credit (0: not carried). *forced* (``--carry-forward``) turns it
@@ -99,7 +101,8 @@ def load_assignment(path: Path | str, bank: Path | str | None = None) -> Assignm
         data,
         "",
         ("title", "course", "salt", "problems"),
-        ("term", "due", "instructions", "submission", "bank", "redraws", "feedback", "carry_forward", "online"),
+        ("term", "due", "instructions", "submission", "bank", "redraws", "feedback", "carry_forward", "online",
+         "exports"),
     )
     listed = data.get("problems") if isinstance(data.get("problems"), list) else []
     named = [it.get("id") for it in listed if isinstance(it, dict) and isinstance(it.get("id"), str)]
@@ -156,6 +159,7 @@ def load_assignment(path: Path | str, bank: Path | str | None = None) -> Assignm
         c.err(data, "feedback", "feedback", f"expected direction or band, got {feedback!r}")
     carry = _carry(c, data, "carry_forward", "carry_forward") if "carry_forward" in data else None
     online = _online(c, data) if "online" in data else Online()
+    exports = _exports(c, data) if "exports" in data else None
     if c.errors:
         raise ErrorList(c.errors)
     return Assignment(
@@ -173,7 +177,23 @@ def load_assignment(path: Path | str, bank: Path | str | None = None) -> Assignm
         str(feedback),
         carry,
         online,
+        exports,
     )
+
+
+def _exports(c: _Collector, data) -> tuple[str, ...] | None:
+    """``exports: [grades, canvas, moodle-feedback-zip, ...]``: the names of the exports table."""
+    from gradekit.grading.exports import choose_exports
+
+    node = data["exports"]
+    if not isinstance(node, list) or not all(isinstance(n, str) for n in node):
+        c.err(data, "exports", "exports", f"expected a list of export names, got {node!r}")
+        return None
+    try:
+        return choose_exports(node)
+    except GradekitError as exc:
+        c.err(data, "exports", "exports", exc.detail)
+        return None
 
 
 def _online(c: _Collector, data) -> Online:

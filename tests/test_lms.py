@@ -133,3 +133,21 @@ def _one_file(tmp_path: Path) -> Path:
     sub.mkdir()
     (sub / "1.csv").write_text("student_id,key,value,unit\n1,p1.T,1,N*m\n", encoding="utf-8")
     return sub
+
+
+def test_an_assignment_chooses_its_exports(tmp_path: Path) -> None:
+    from gradekit.assignment import load_assignment
+
+    head = "title: HW\ncourse: MEG373\nsalt: s\nproblems:\n  - {id: ch5-ex5-1, points: 10}\n"
+    good = tmp_path / "good.yaml"
+    good.write_text(head + "exports: [report, moodle-feedback-zip, grades]\n", encoding="utf-8")
+    assert load_assignment(good).exports == ("grades", "report", "moodle-feedback-zip")
+    plain = tmp_path / "plain.yaml"
+    plain.write_text(head, encoding="utf-8")
+    assert load_assignment(plain).exports is None  # the default set
+    bad = tmp_path / "bad.yaml"
+    bad.write_text(head + "exports: [grades, canvass]\n", encoding="utf-8")
+    with pytest.raises(GradekitError) as info:
+        load_assignment(bad)
+    assert info.value.format_message() == (
+        f"{bad}:6: exports: expected exports among {', '.join(EXPORTS)}; got 'canvass' (did you mean 'canvas'?)")
