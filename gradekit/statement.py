@@ -9,9 +9,11 @@ statement can neither run code nor hang a run.
 from __future__ import annotations
 
 import operator
+import re
 
 import jinja2
 from jinja2 import nodes
+from jinja2.compiler import CodeGenerator
 from jinja2.sandbox import ImmutableSandboxedEnvironment
 
 from gradekit import units
@@ -34,23 +36,71 @@ _BINOPS = {  # jinja2 operator -> the function the sandbox calls after its check
 }
 
 
+class _CodeGenerator(CodeGenerator):
+    """Jinja2's code generator with ``a ~ b`` (string concatenation) sent through `_Sandbox.concat`.
+
+    The sandbox intercepts binary operators only; ``~`` compiles to a plain join, so that 30 doublings
+    ``{% set s = s ~ s %}`` would build a 2 GB string before the rendered text could be measured.
+    """
+
+    def visit_Concat(self, node: nodes.Concat, frame) -> None:
+        self.write("environment.concat((")
+        for arg in node.nodes:
+            self.visit(arg, frame)
+            self.write(", ")
+        self.write("))")
+
+
 class _Sandbox(ImmutableSandboxedEnvironment):
-    """The immutable sandbox with every arithmetic operator checked (no huge powers or strings)."""
+    """The immutable sandbox with every arithmetic operator and ``~`` checked (no huge powers or strings)."""
 
     intercepted_binops = frozenset(_BINOPS)
+    code_generator_class = _CodeGenerator
 
     def call_binop(self, context, operator: str, left, right):
         if _too_big(operator, left, right):
             raise jinja2.sandbox.SecurityError(f"{operator} gives a result too large to print")
         return _BINOPS[operator](left, right)
 
+    def concat(self, parts: tuple) -> str:
+        """``a ~ b ~ …``: the parts as text, refused when longer than `MAX_LENGTH` together."""
+        texts = [str(p) for p in parts]
+        if sum(map(len, texts)) > MAX_LENGTH:
+            raise jinja2.sandbox.SecurityError(f"~ gives a text longer than {MAX_LENGTH:,} characters")
+        return "".join(texts)
+
 
 def _bits(x: object) -> int:
     return abs(x).bit_length() if isinstance(x, int) else 0
 
 
+# a printf conversion of ``text % values``: its width and precision (``*`` takes them from the values)
+_CONVERSION = re.compile(r"%(?:\([^)]*\))?[#0 +-]*(\*|\d+)?(?:\.(\*|\d+))?[hlL]?.")
+
+
+def _formatted_too_long(text: str, values: object) -> bool:
+    """Whether ``text % values`` could be longer than `MAX_LENGTH`: the text, the widths and precisions it
+    asks for (``"%0900000000d" % 1`` is 900 MB of zeros) and every value as text, added up (``"%s%s" %
+    (s, s)`` doubles s); a ``*`` width is refused outright."""
+    asked = len(text)
+    for width, precision in _CONVERSION.findall(text):
+        if "*" in (width, precision):
+            return True
+        asked += int(width or 0) + int(precision or 0)
+        if asked > MAX_LENGTH:
+            return True
+    items = values.values() if isinstance(values, dict) else values if isinstance(values, tuple) else (values,)
+    for v in items:
+        asked += len(v) if isinstance(v, str) else len(str(v)) if isinstance(v, (int, float)) else MAX_LENGTH + 1
+        if asked > MAX_LENGTH:
+            return True
+    return False
+
+
 def _too_big(op: str, left: object, right: object) -> bool:
     """Whether ``left op right`` would be a huge integer or a string/list over `MAX_LENGTH`."""
+    if op == "%" and isinstance(left, str):
+        return _formatted_too_long(left, right)
     if op == "**":
         if isinstance(right, (int, float)) and isinstance(left, (int, float)) and abs(left) > 1:
             bits = max(_bits(left), 1) if isinstance(left, int) else 0
@@ -136,7 +186,7 @@ def render_statement(problem: Problem, values: dict[str, float]) -> str:
     template = _template(problem, problem.statement)
     ctx = {n: shown(problem, n, v) for n, v in values.items() if n in problem.parameters}
     try:
-        text = template.render(**ctx).strip()
+        text = _rendered(template, ctx)
     except jinja2.sandbox.SecurityError as exc:
         raise _refuse(
             problem, f"expected a statement using the problem's parameters, got an unsafe use: {exc}"
@@ -145,6 +195,18 @@ def render_statement(problem: Problem, values: dict[str, float]) -> str:
         raise _refuse(problem, f"expected a statement using the problem's parameters, got {exc}") from None
     except (TypeError, ValueError, ArithmeticError) as exc:
         raise _refuse(problem, f"expected a statement using the problem's parameters, got {exc}") from None
-    if len(text) > MAX_LENGTH:
+    if text is None:
         raise _refuse(problem, f"expected a rendered statement of at most {MAX_LENGTH:,} characters, got more")
     return text
+
+
+def _rendered(template: jinja2.Template, ctx: dict) -> str | None:
+    """The rendered text, or None once it grows past `MAX_LENGTH` (measured piece by piece: many
+    outputs of a long string must not add up to megabytes first)."""
+    pieces, size = [], 0
+    for piece in template.generate(**ctx):
+        size += len(piece)
+        if size > MAX_LENGTH:
+            return None
+        pieces.append(piece)
+    return "".join(pieces).strip()
