@@ -77,7 +77,10 @@ def load_problems(ids: Iterable[str], path: Path | str | None = None) -> dict[st
         raise ProblemError(f"expected a folder of problem YAML files, got nothing at {folder}")
     files: dict[str, list[Path]] = {}
     for f in sorted(folder.glob("*.yaml")):
-        if f.name.startswith("_") or not is_regular(f):
+        if f.name.startswith("_"):
+            continue
+        if not is_regular(f):  # as load_bank: never read, and said
+            log.warning("warning: %s: skipped, not a regular file", f)
             continue
         try:
             m = _ID_LINE.search(f.read_text(encoding="utf-8"))
