@@ -54,12 +54,30 @@ def intermediate(result: Result) -> dict:
                 continue
             du = display_unit(p, u)
             sel[key] = {"value": units.convert(v, u, du) if du != u else v, "unit": du}
+        _drop_repeats(sel)
         if dynamic:
             for body, st in case.solution.states.items():
                 if st.inertia_couple and st.mass:
                     sel[f"h_side[{p.label(body)}]"] = {"value": offset_side(st.inertia_couple), "unit": ""}
         out[case.name or "_"] = sel
     return out
+
+
+def _drop_repeats(sel: dict) -> None:
+    """Remove what another line already says: a vector's bare name (its magnitude, as ``.mag``) and a
+    force's magnitude at a point (``F[1,2]@B.mag``, the same as ``F[1,2].mag``)."""
+    for key in list(sel):
+        base = key.split("@", 1)[0].removesuffix(".mag") if key.endswith(".mag") and "@" in key else key
+        same = sel.get(f"{base}.mag")
+        if key != f"{base}.mag" and same is not None and same["value"] == sel[key]["value"] \
+                and same["unit"] == sel[key]["unit"]:
+            del sel[key]
+
+
+def shown_value(value: float, scale: float) -> float:
+    """*value* as printed: 0 when it is below *scale* × 1e-12 (round-off of a zero, e.g. 5.3e-15 N
+    where the forces are tens of newtons)."""
+    return 0.0 if abs(value) < abs(scale) * 1e-12 else value
 
 
 def offset_side(couple: float) -> str:
@@ -150,13 +168,20 @@ def as_text(result: Result) -> str:
         lines.append(f"  {n:<10} = {units.with_unit(fmt(v, 6), par.unit)}  {par.description}")
     for name, sel in intermediate(result).items():
         lines.append("intermediate" + ("" if name == "_" else f" (case {name})") + ":")
+        scales: dict[str, float] = {}  # per unit, the largest value of the case
+        for d in sel.values():
+            if not isinstance(d["value"], str):
+                scales[d["unit"]] = max(scales.get(d["unit"], 0.0), abs(d["value"]))
         for k, d in sel.items():
-            shown = d["value"] if isinstance(d["value"], str) else units.with_unit(fmt(d["value"]), d["unit"])
+            value = d["value"]
+            shown = value if isinstance(value, str) else units.with_unit(
+                fmt(shown_value(value, scales[d["unit"]])), d["unit"])
             lines.append(f"  {k:<22} = {shown}")
     lines.append("answers:")
     for a in result.answers:
         sign = f"  [{a.sign}]" if a.sign else ""
-        lines.append(f"  {a.key:<8} = {units.with_unit(fmt(a.value), a.unit)}  {a.description}{sign}")
+        value = shown_value(a.value, a.scale or abs(a.value))
+        lines.append(f"  {a.key:<8} = {units.with_unit(fmt(value), a.unit)}  {a.description}{sign}")
     lines.append(
         f"checks: virtual-work residual {result.virtual_work_residual:.2e}, condition number "
         f"{result.condition_number:.3g}, transmission angle {result.transmission_angle:.1f}°"
