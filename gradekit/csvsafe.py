@@ -3,8 +3,12 @@
 from __future__ import annotations
 
 import codecs
+import contextlib
 import csv
+import errno
+import glob
 import io
+import logging
 import os
 import re
 import shutil
@@ -14,6 +18,10 @@ import threading
 from collections.abc import Iterable, Sequence
 from numbers import Number
 from pathlib import Path
+
+from gradekit.errors import GradekitError
+
+log = logging.getLogger("gradekit")
 
 # OWASP's list: a spreadsheet treats a cell starting with one of these as a formula.
 _FORMULA_START = ("=", "+", "-", "@", "\t", "\r")
@@ -199,31 +207,93 @@ def sniff_delimiter(text: str) -> str:
 
 
 class StagedFolder:
-    """A run's outputs built in a hidden folder beside OUT and moved into OUT only when complete.
+    """A run's outputs built in a hidden folder beside OUT and moved into place only when complete.
 
     Use as ``with StagedFolder(out, ".gradekit-output") as stage: write below stage.root; then
-    stage.commit()``. An exception or Ctrl-C before `commit` removes the staging folder and leaves
-    OUT exactly as the previous run left it. `commit` moves every file in with Ctrl-C held back
-    (POSIX), writes the list of files it owns to OUT/*listing*, and deletes the files the previous
-    run listed that this run did not write (e.g. the feedback of a student no longer on the
-    roster); files it never listed (a user's own) are never touched. Should the commit itself be
-    cut short (power loss), ``OUT/INCOMPLETE.txt`` says so until a later run completes.
+    stage.commit()``. OUT is created, and locked for the run: a second run on the same folder is
+    refused with a `GradekitError` while the first is working (an advisory ``flock`` on the folder
+    itself, which the system drops with the process, so a killed run never leaves it stuck). The
+    staging folder ``.<name>.partial-*`` is made beside OUT, on OUT's file system; when OUT is a mount
+    point (another disk, a USB stick, a container volume) or its parent cannot be written, it is made
+    inside OUT instead (``.gradekit.partial-*``), and a move the system still refuses across devices (a
+    bind mount) is done by copying. Staging folders that a killed run left (in either place) are
+    removed once the lock is taken, and logged; `removed` names them.
+
+    An exception or Ctrl-C before `commit` removes the staging folder and leaves OUT exactly as the
+    previous run left it (and no OUT at all when this run made it). `commit` moves every file in
+    with Ctrl-C held back (POSIX), writes the list of files it owns to OUT/*listing*, and deletes
+    the files the previous run listed that this run did not write (e.g. the feedback of a student
+    no longer on the roster); files it never listed (a user's own) are never touched, and a staged
+    file that would replace one of them is refused before anything moves. Should the commit itself
+    be cut short (power loss), ``OUT/INCOMPLETE.txt`` says so until a later run completes.
+    Anything the file system refuses (a full disk, a read-only folder) is a `GradekitError` naming
+    the file.
     """
 
     INCOMPLETE = "INCOMPLETE.txt"
+    PARTIAL = ".gradekit.partial-"  # the staging folders' names inside OUT
 
     def __init__(self, out: Path, listing: str, *, merge: bool = False) -> None:
         self.out = Path(out)
         self.listing = listing
         self.merge = merge  # keep the previous run's files (a partial re-run)
-        self.out.parent.mkdir(parents=True, exist_ok=True)
-        self.root = Path(tempfile.mkdtemp(prefix=f".{self.out.name}.partial-", dir=self.out.parent))
+        self.removed: list[Path] = []
+        made = not os.path.lexists(self.out)
+        with os_errors(self.out):
+            self.out.mkdir(parents=True, exist_ok=True)
+        self._made = made
+        self._lock = _lock(self.out)
+        try:
+            self.removed = self._remove_stale()
+            if self.removed:
+                names = ", ".join(p.name for p in self.removed)
+                log.warning("warning: removed %d staging folder(s) an interrupted run left in %s: %s",
+                            len(self.removed), self.out, names)
+            self.root = self._make_root()
+        except BaseException:
+            self._release()
+            raise
 
     def __enter__(self) -> StagedFolder:
         return self
 
     def __exit__(self, exc_type, exc, tb) -> None:
         shutil.rmtree(self.root, ignore_errors=True)
+        self._release()
+
+    def _release(self) -> None:
+        """Give the folder back: OUT goes again when this run made it and left nothing in it."""
+        if self._made:
+            try:
+                self.out.rmdir()
+            except OSError:
+                pass
+        if self._lock is not None:
+            os.close(self._lock)
+            self._lock = None
+
+    def _make_root(self) -> Path:
+        """The staging folder: beside OUT when that is OUT's file system, else inside OUT."""
+        parent = self.out.resolve().parent
+        try:
+            if not os.path.ismount(self.out) and os.stat(parent).st_dev == os.stat(self.out).st_dev:
+                return Path(tempfile.mkdtemp(prefix=self._beside(), dir=parent))
+        except OSError:  # a parent that cannot be written (a mount point under a read-only folder)
+            pass
+        with os_errors(self.out):
+            return Path(tempfile.mkdtemp(prefix=self.PARTIAL, dir=self.out))
+
+    def _beside(self) -> str:
+        return f".{self.out.resolve().name}.partial-"
+
+    def _remove_stale(self) -> list[Path]:
+        """The staging folders of interrupted runs, removed (the lock says no run is using them)."""
+        stale = [p for p in self.out.glob(self.PARTIAL + "*") if p.is_dir() and not p.is_symlink()]
+        stale += [p for p in self.out.resolve().parent.glob(glob.escape(self._beside()) + "*")
+                  if p.is_dir() and not p.is_symlink()]
+        for p in stale:
+            shutil.rmtree(p, ignore_errors=True)
+        return sorted(stale)
 
     def previous(self) -> list[str]:
         """The relative paths the previous run listed (empty when there is no listing)."""
@@ -266,20 +336,23 @@ class StagedFolder:
                 (outputs of a version of gradekit that wrote no listing).
             retain: prefixes of the previous run's paths to keep even though this run did not
                 write them (outputs this run was asked to leave alone).
+
+        Raises:
+            GradekitError: a staged file would replace a file no gradekit run listed (a user's), or
+                the file system refused a write (the file named).
         """
         files, whole = self._staged()
         staged = sorted(files)
         old = list(dict.fromkeys([*self.previous(), *extra_previous]))
-        with _SigintHeld():
-            self.out.mkdir(parents=True, exist_ok=True)
+        # folders OUT does not have yet move in with one rename (thousands of feedback files)
+        fresh = [d for d in whole if not os.path.lexists(self.out / d)]
+        self._refuse_foreign(staged, set(old), set(fresh))
+        with _SigintHeld(), os_errors(self.out):
             note = "gradekit was interrupted while writing this folder: its files may mix two runs. Run it again.\n"
             atomic_write(self.out / self.INCOMPLETE, note)
-            # a folder OUT does not have yet moves in with one rename (thousands of feedback files)
             moved: set[str] = set()
-            for d in whole:  # shallowest first: a folder inside one that moved went with it
-                if not _under(d, moved) and not os.path.lexists(self.out / d):
-                    (self.out / d).parent.mkdir(parents=True, exist_ok=True)
-                    os.replace(self.root / d, self.out / d)
+            for d in fresh:  # shallowest first: a folder inside one that moved went with it
+                if not _under(d, moved) and _rename(self.root / d, self.out / d):
                     moved.add(d)
             made: set[str] = set()
             for rel in staged:
@@ -289,7 +362,7 @@ class StagedFolder:
                 if folder not in made:
                     (self.out / folder).mkdir(parents=True, exist_ok=True)
                     made.add(folder)
-                os.replace(self.root / rel, self.out / rel)
+                _move(self.root / rel, self.out / rel)
             keep = set(staged)
             kept = tuple(retain) if not self.merge else ("",)
             keep |= {rel for rel in old if rel.startswith(kept) and (self.out / rel).is_file()}
@@ -301,6 +374,106 @@ class StagedFolder:
             atomic_write(self.out / self.listing, listing)
             (self.out / self.INCOMPLETE).unlink()
         return [self.out / rel for rel in staged]
+
+    def _refuse_foreign(self, staged: list[str], old: set[str], fresh: set[str]) -> None:
+        """Refuse to replace a file of OUT that no run listed (a user's), unless the last commit was cut
+        short (its files were moved in before its listing was written)."""
+        if os.path.lexists(self.out / self.INCOMPLETE):
+            return
+        for rel in staged:
+            if rel in old or _under(rel, fresh):
+                continue
+            if os.path.lexists(self.out / rel):
+                raise GradekitError(
+                    f"expected a file gradekit wrote (listed in {self.listing}), got one it did not write; "
+                    "move it away or choose another output folder",
+                    path=str(self.out / rel),
+                )
+
+
+def _lock(out: Path) -> int | None:
+    """An exclusive advisory lock on the folder *out* (its open descriptor), or None where the system
+    has no ``flock`` (Windows) or the file system takes none (some network mounts): run unlocked.
+
+    Refused at once, never waited for. The lock belongs to the open folder, so the system drops it when
+    the process ends, however it ends. A run that made OUT removes it again when it fails; should that
+    happen between our opening and locking the folder, the lock is taken again on the new folder."""
+    try:
+        import fcntl
+    except ImportError:  # pragma: no cover - Windows
+        return None
+    for _ in range(5):
+        with os_errors(out):
+            out.mkdir(parents=True, exist_ok=True)
+            fd = os.open(out, os.O_RDONLY | getattr(os, "O_DIRECTORY", 0))
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            os.close(fd)
+            raise GradekitError(
+                "expected a folder no other gradekit run is writing, got one in use (another generate or grade "
+                "is running on it); wait for it to end or choose another output folder",
+                path=str(out),
+            ) from None
+        except OSError:
+            return fd  # no locks on this file system
+        try:
+            here, held = os.stat(out), os.fstat(fd)
+            if (here.st_dev, here.st_ino) == (held.st_dev, held.st_ino):
+                return fd
+        except OSError:
+            pass
+        os.close(fd)
+    raise GradekitError("expected a folder that stays in place, got one removed again and again", path=str(out))
+
+
+def _rename(src: Path, dst: Path) -> bool:
+    """Move the folder *src* to *dst* (which does not exist) by one rename; False when the system will
+    not rename across devices (a mount inside OUT): its files are then moved one by one."""
+    dst.parent.mkdir(parents=True, exist_ok=True)
+    try:
+        os.replace(src, dst)
+    except OSError as exc:
+        if exc.errno != errno.EXDEV:
+            raise
+        return False
+    return True
+
+
+def _move(src: Path, dst: Path) -> None:
+    """Move the file *src* over *dst*: a rename, or across devices a copy beside *dst* renamed over it
+    (a reader never sees half a file either way)."""
+    try:
+        os.replace(src, dst)
+        return
+    except OSError as exc:
+        if exc.errno != errno.EXDEV:
+            raise
+    fd, tmp = tempfile.mkstemp(prefix=f".{dst.name}.", suffix=".tmp", dir=dst.parent)
+    os.close(fd)
+    try:
+        shutil.copyfile(src, tmp)
+        os.chmod(tmp, os.stat(src).st_mode & 0o7777)
+        os.replace(tmp, dst)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
+        raise
+    os.unlink(src)
+
+
+@contextlib.contextmanager
+def os_errors(folder: Path):
+    """What the file system refuses while a run writes its output (a full disk, a read-only or missing
+    folder) as a `GradekitError`: one line naming the file (*folder* when the error names none)."""
+    try:
+        yield
+    except OSError as exc:
+        if isinstance(exc, (BlockingIOError, InterruptedError)):
+            raise
+        where = exc.filename if exc.filename is not None else folder
+        why = exc.strerror or exc.__class__.__name__
+        raise GradekitError(f"expected to write the output, got {why}", path=str(where)) from None
 
 
 def _under(rel: str, folders: set[str]) -> bool:

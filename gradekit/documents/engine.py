@@ -15,13 +15,25 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from gradekit import frozen
-from gradekit.assignment import Assignment, class_keys, keys_for, load_assignment, manifest, seeds_of
-from gradekit.csvsafe import StagedFolder, atomic_write, write_csv
+from gradekit.assignment import (
+    Assignment,
+    class_keys,
+    frozen_keys,
+    keys_for,
+    load_assignment,
+    manifest,
+    redraws_from_manifest,
+    seeds_of,
+    student_variant,
+)
+from gradekit.csvsafe import StagedFolder, atomic_write, os_errors, write_csv
 from gradekit.documents import typeset
 from gradekit.documents.context import Picture, Solved, build_context
 from gradekit.errors import GradekitError
+from gradekit.keys import KeyEntry
 from gradekit.report import fmt
 from gradekit.roster import Student, read_roster, safe_names
+from gradekit.sampling import Variant
 
 log = logging.getLogger("gradekit")
 
@@ -70,16 +82,21 @@ def generate(
     """Write every student's documents, the answer key CSV, the combined PDFs and the manifest.
 
     Layout of *out*: ``students/<safe id>/assignment.pdf`` and ``answers.csv``, ``keys/<safe id>.pdf``,
-    ``key.csv``, ``assignments.pdf``, ``keys.pdf``, ``manifest.json``. Every file is written
-    atomically and deterministically, so a re-run leaves identical files.
+    ``key.csv``, ``keys.json``, ``assignments.pdf``, ``keys.pdf``, ``manifest.json``. Every file is
+    written deterministically, so a re-run leaves identical files, and the run's files move in only
+    when all are made (`StagedFolder`: a second run on OUT meanwhile is refused). OUT must be empty or
+    a previous output of generate; only the files the previous run listed (or, for an older
+    gradekit, its manifest names) are ever replaced or removed.
 
     Args:
         assignment: the assignment YAML.
         roster: the class roster CSV.
         out: the output folder (created).
         jobs: worker processes (1: in this process).
-        student: regenerate only this student's files (plus key.csv and manifest.json; the
-            combined PDFs are left as they are).
+        student: add or replace only this student of the class in *out* (`_add_student`): their
+            documents, their entries in keys.json, key.csv and manifest.json (everyone else's stay as
+            they were) and the combined PDFs. Only this student is drawn and solved; the roster is
+            read for their name alone, so a roster of late students only drops no one.
         keys: also write the worked keys (``keys/``, ``keys.pdf``).
         progress: show a progress bar when stderr is a terminal.
 
@@ -87,7 +104,8 @@ def generate(
         A `GenerateSummary`.
 
     Raises:
-        GradekitError: a bad assignment, roster or student id.
+        GradekitError: a bad assignment, roster, student id or output folder, or a write the file
+            system refused (a full disk, a read-only folder), naming the file.
     """
     t0 = time.perf_counter()
     asg = load_assignment(assignment)
@@ -95,16 +113,34 @@ def generate(
     by_id = {s.student_id: s for s in students}
     if student is not None and student not in by_id:
         raise GradekitError(f"expected a student id of the roster, got {student!r}", path=str(roster))
-    names = safe_names(by_id)
     final = Path(out)
     if final.exists() and not final.is_dir():
         raise GradekitError("expected an output folder, got a file", path=str(final))
-    chosen = [by_id[student]] if student is not None else students
-    # Everything is built beside OUT and moved in when complete: Ctrl-C leaves OUT as it was.
-    stage = StagedFolder(final, LISTING, merge=student is not None)
-    out = stage.root
-    for sub in ("students", "keys", BUILD) if keys else ("students", BUILD):
-        (out / sub).mkdir(parents=True, exist_ok=True)
+    # Everything is built in a staging folder inside OUT and moved in when complete: Ctrl-C leaves OUT as
+    # it was. The previous run is read under the folder's lock, so no other run changes it meanwhile.
+    with StagedFolder(final, LISTING, merge=student is not None) as stage, os_errors(final):
+        previous, unlisted = _previous(final, stage, need_manifest=student is not None)
+        if student is None:
+            summary = _whole_class(asg, Path(assignment), students, stage, jobs, keys, progress)
+        else:
+            summary = _add_student(asg, Path(assignment), by_id[student], stage, previous, keys)
+        stage.commit(
+            "gradekit generate output; files listed here are rewritten by the next run, others are left alone",
+            extra_previous=unlisted,
+            retain=() if keys else ("keys/", "keys.pdf"),
+        )
+    summary.seconds = time.perf_counter() - t0
+    return summary
+
+
+def _whole_class(
+    asg: Assignment, assignment: Path, students: list[Student], stage: StagedFolder, jobs: int, keys: bool,
+    progress: bool,
+) -> GenerateSummary:
+    """Every student of the roster, staged: sheets, keys, key.csv, keys.json, manifest, combined PDFs."""
+    final, out = stage.out, stage.root
+    names = safe_names(s.student_id for s in students)
+    _folders(out, keys)
     # The class's variants (explicit re-draws plus the class de-duplication) and their keys with the
     # catalogued mistakes, drawn and solved once here in class-wide batches, then frozen in
     # keys.json for grading. A worker draws the same class's variants once when it starts (see
@@ -112,67 +148,237 @@ def generate(
     ids = [s.student_id for s in students]
     class_entries, variants = class_keys(asg, ids)
     redraws = {sid: {label: v.redraw for label, v in per.items()} for sid, per in variants.items()}
-    job = _Job(str(Path(assignment)), str(out), keys, tuple(ids))
-    summary = GenerateSummary(final, len(chosen))
+    job = _Job(str(assignment), str(out), keys, tuple(ids))
     done: dict[str, _Done] = {}
-    work = [(s, names[s.student_id]) for s in chosen]
-    with stage:
-        with _bar(len(work), progress) as bar:
-            if jobs <= 1 or len(work) <= 1:
-                _init(job, asg, variants)
-                for s, safe in work:
-                    done[s.student_id] = _one(s, safe)
+    work = [(s, names[s.student_id]) for s in students]
+    safes = [names[s.student_id] for s in students]
+    with _bar(len(work), progress) as bar:
+        if jobs <= 1 or len(work) <= 1:
+            _init(job, asg, variants)
+            for s, safe in work:
+                done[s.student_id] = _one(s, safe)
+                bar.update(1)
+            _combine(out, asg, safes, keys)
+        else:
+            # spawn, not fork: a forked child inherits typst's and matplotlib's threads mid-lock
+            ctx = multiprocessing.get_context("spawn")
+            with ProcessPoolExecutor(jobs, mp_context=ctx, initializer=_worker_init, initargs=(job,)) as pool:
+                # one student a task: a student is a third of a second of work and a task's round trip
+                # well under a millisecond, so the workers end within one student of each other
+                # (chunks of 8 left one core idle for up to 8 students at the end)
+                for d in pool.map(_one_packed, work):
+                    done[d.student_id] = d
                     bar.update(1)
-                if student is None:
-                    _combine(out, asg, [names[s.student_id] for s in students], keys)
-            else:
-                # spawn, not fork: a forked child inherits typst's and matplotlib's threads mid-lock
-                ctx = multiprocessing.get_context("spawn")
-                with ProcessPoolExecutor(jobs, mp_context=ctx, initializer=_worker_init, initargs=(job,)) as pool:
-                    # one student a task: a student is a third of a second of work and a task's round trip
-                    # well under a millisecond, so the workers end within one student of each other
-                    # (chunks of 8 left one core idle for up to 8 students at the end)
-                    for d in pool.map(_one_packed, work):
-                        done[d.student_id] = d
-                        bar.update(1)
-                    if student is None:  # the two combined PDFs side by side in the workers
-                        _combine(out, asg, [names[s.student_id] for s in students], keys, pool)
-        # key.csv and keys.json always cover the whole class, in roster order
-        write_csv(out / "key.csv", KEY_HEADER, [_key_row(e) for e in class_entries])
-        frozen_text = frozen.dumps(class_entries)
-        atomic_write(out / frozen.FILE, frozen_text)
-        seeds = {s.student_id: seeds_of(asg, s.student_id, redraws[s.student_id]) for s in students}
-        data = manifest(asg, [s.student_id for s in students], seeds, frozen_text)
-        atomic_write(out / "manifest.json", json.dumps(data, indent=2, ensure_ascii=False) + "\n")
-        shutil.rmtree(out / BUILD, ignore_errors=True)
-        stage.commit(
-            "gradekit generate output; files listed here are rewritten by the next run, others are left alone",
-            extra_previous=() if stage.previous() else _unlisted_outputs(final),
-            retain=() if keys else ("keys/", "keys.pdf"),
-        )
-    out = final
-    for s in chosen:
-        summary.assignments.append(out / "students" / names[s.student_id] / "assignment.pdf")
-        if keys:
-            summary.keys.append(out / "keys" / f"{names[s.student_id]}.pdf")
-        summary.warnings += done[s.student_id].warnings
-    if student is None:
-        summary.combined = [out / "assignments.pdf"] + ([out / "keys.pdf"] if keys else [])
-    summary.seconds = time.perf_counter() - t0
+                _combine(out, asg, safes, keys, pool)  # the two combined PDFs side by side in the workers
+    seeds = {s.student_id: seeds_of(asg, s.student_id, redraws[s.student_id]) for s in students}
+    frozen_text = frozen.dumps(class_entries)
+    _write_keys(out, class_entries, frozen_text, manifest(asg, ids, seeds, frozen_text))
+    summary = GenerateSummary(final, len(students))
+    _summarise(summary, students, names, done, keys)
+    summary.combined = [final / "assignments.pdf"] + ([final / "keys.pdf"] if keys else [])
     return summary
+
+
+def _add_student(
+    asg: Assignment, assignment: Path, s: Student, stage: StagedFolder, previous: dict | None, keys: bool
+) -> GenerateSummary:
+    """One student added to (or replaced in) the class a previous run wrote into OUT, staged.
+
+    Everyone else's entries of keys.json and manifest.json are kept as they are: their sheets were
+    printed from them. The student's re-draw counter is the assignment's explicit one for them, else
+    the one the manifest recorded (their sheet as printed, with the current bank), else 0; it moves on
+    while their answers repeat another student's frozen ones (the class de-duplication, against the
+    keys as frozen). Only this student is drawn and solved. With no previous output the class is this
+    student alone.
+    """
+    final, out = stage.out, stage.root
+    sid = s.student_id
+    path = final / "manifest.json"
+    old_keys = _previous_keys(asg, path, previous) if previous is not None else {}
+    order = list(previous["students"]) if previous is not None else []
+    recorded = redraws_from_manifest(path).get(sid, {}) if previous is not None else {}
+    variants: dict[str, Variant] = {}
+    mine: list[KeyEntry] = []
+    for item in asg.items:
+        v = _unique_variant(asg, item, sid, asg.redraws.get(sid, {}).get(item.label, recorded.get(item.label, 0)),
+                            old_keys)
+        variants[item.label] = v
+        mine += keys_for(asg, item, sid, v)
+    if sid not in order:
+        order.append(sid)
+    entries = [e for other in order for e in (mine if other == sid else old_keys[other])]
+    frozen_text = frozen.dumps(entries)
+    _check_frozen(frozen.loads(frozen_text, str(final / frozen.FILE)), {**old_keys, sid: mine}, sid, path)
+    data = previous if previous is not None else manifest(asg, [], {}, frozen_text)
+    data["students"][sid] = seeds_of(asg, sid, {label: v.redraw for label, v in variants.items()})
+    data["keys"] = {**data.get("keys", {}), "file": frozen.FILE, "sha256": frozen.sha256(frozen_text)}
+    names = safe_names(order)
+    _folders(out, keys)
+    job = _Job(str(assignment), str(out), keys, (sid,))
+    _init(job, asg, {sid: variants})
+    done = {sid: _one(s, names[sid])}
+    _write_keys(out, entries, frozen_text, data)
+    summary = GenerateSummary(final, 1)
+    _summarise(summary, [s], names, done, keys)
+    # the combined PDFs again, in the class's order: the others' documents are linked into the staging
+    # folder for the concatenation and unlinked before the commit (they stay in OUT as they are)
+    linked, present = [], []
+    for other in order:
+        parts = [f"students/{names[other]}/assignment.pdf"] + ([f"keys/{names[other]}.pdf"] if keys else [])
+        if other != sid:
+            if not all((final / rel).is_file() for rel in parts):
+                summary.warnings.append(f"student {other}: no documents in {final}; the combined PDFs go without them")
+                continue
+            for rel in parts:
+                _link(final / rel, out / rel)
+            linked += parts
+        present.append(names[other])
+    _combine(out, asg, present, keys)
+    for rel in linked:
+        (out / rel).unlink()
+    summary.combined = [final / "assignments.pdf"] + ([final / "keys.pdf"] if keys else [])
+    return summary
+
+
+def _unique_variant(asg: Assignment, item, sid: str, redraw: int, others: dict[str, list[KeyEntry]]) -> Variant:
+    """*sid*'s variant of *item* from re-draw *redraw* on, re-drawn while its answers equal another
+    student's frozen answers (as `class_variants` re-draws a student whose values repeat an earlier one's)."""
+    v = student_variant(asg, item, sid, redraw)
+    if not any(p.random for p in item.problem.parameters.values()):
+        return v  # everyone has the published values
+    prefix = f"{item.label}."
+    taken = {
+        tuple(e.value for e in entries if e.key.startswith(prefix)) for other, entries in others.items() if other != sid
+    }
+    while tuple(float(a.value) for a in v.result.answers) in taken and v.redraw < REDRAW_LIMIT:
+        v = student_variant(asg, item, sid, v.redraw + 1)
+    return v
+
+
+REDRAW_LIMIT = 50  # as `class_variants`
+
+
+def _previous_keys(asg: Assignment, path: Path, previous: dict) -> dict[str, list[KeyEntry]]:
+    """The frozen keys of the class a previous run wrote, checked to be of this assignment."""
+    info = previous.get("assignment") or {}
+    problems = previous.get("problems") or {}
+    theirs = (info.get("course"), info.get("salt"), {label: p.get("id") for label, p in problems.items()
+                                                     if isinstance(p, dict)})
+    ours = (asg.course, asg.salt, {it.label: it.problem.id for it in asg.items})
+    if theirs != ours:
+        raise GradekitError(
+            f"expected the output of this assignment (course {ours[0]!r}, salt {ours[1]!r}, problems {ours[2]}), "
+            f"got one of course {theirs[0]!r}, salt {theirs[1]!r}, problems {theirs[2]}; --student adds a student "
+            "to the class generated there: generate the whole class into a new folder instead",
+            path=str(path),
+        )
+    found = frozen_keys(path)
+    if found is None:
+        raise GradekitError(
+            "expected the frozen keys (keys.json) of the class beside the manifest, got a manifest without them "
+            "(an older gradekit); generate the whole class again to add a student",
+            path=str(path),
+        )
+    return {other: found[other] for other in found}
+
+
+def _check_frozen(loaded, expected: dict[str, list[KeyEntry]], sid: str, path: Path) -> None:
+    """Refuse a keys.json that does not give back every student's entries: keys.json holds the unit,
+    points, description, sign and tolerance of an answer once for the class, so a bank or assignment
+    edit that changed them cannot be given to one student alone."""
+    for other, entries in expected.items():
+        if loaded[other] != entries:
+            key = next((a.key for a, b in zip(loaded[other], entries, strict=False) if a != b), entries[0].key)
+            raise GradekitError(
+                f"expected {key} of student {sid} with the unit, points, description, sign and tolerance the class "
+                "was generated with, got another (the bank or the assignment changed them); undo that change to "
+                "add one student, or generate the whole class into a new folder",
+                path=str(path),
+            )
+
+
+def _link(src: Path, dst: Path) -> None:
+    """*dst* as a hard link to *src* (a copy where the file system has no hard links)."""
+    dst.parent.mkdir(parents=True, exist_ok=True)
+    try:
+        os.link(src, dst)
+    except OSError:
+        shutil.copyfile(src, dst)
+
+
+def _folders(out: Path, keys: bool) -> None:
+    for sub in ("students", "keys", BUILD) if keys else ("students", BUILD):
+        (out / sub).mkdir(parents=True, exist_ok=True)
+
+
+def _write_keys(out: Path, entries: list[KeyEntry], frozen_text: str, data: dict) -> None:
+    """key.csv, keys.json and manifest.json of the class, staged; the Typst build folder goes."""
+    write_csv(out / "key.csv", KEY_HEADER, [_key_row(e) for e in entries])
+    atomic_write(out / frozen.FILE, frozen_text)
+    atomic_write(out / "manifest.json", json.dumps(data, indent=2, ensure_ascii=False) + "\n")
+    shutil.rmtree(out / BUILD, ignore_errors=True)
+
+
+def _summarise(summary: GenerateSummary, made: list[Student], names: dict[str, str], done: dict, keys: bool) -> None:
+    final = summary.out
+    for s in made:
+        summary.assignments.append(final / "students" / names[s.student_id] / "assignment.pdf")
+        if keys:
+            summary.keys.append(final / "keys" / f"{names[s.student_id]}.pdf")
+        summary.warnings += done[s.student_id].warnings
 
 
 LISTING = ".gradekit-generate"  # the files the last run wrote (the next full run removes those it does not rewrite)
 
 
-def _unlisted_outputs(out: Path) -> list[str]:
-    """What an older gradekit (no listing) wrote into OUT: taken as its outputs when manifest.json is there."""
-    if not (out / "manifest.json").is_file():
-        return []
-    found = ["key.csv", "manifest.json", "assignments.pdf", "keys.pdf"]
-    sheets = ("assignment.pdf", "answers.csv")
-    found += [f"students/{p.parent.name}/{p.name}" for p in out.glob("students/*/*") if p.name in sheets]
-    found += [f"keys/{p.name}" for p in out.glob("keys/*.pdf")]
+def _previous(out: Path, stage: StagedFolder, need_manifest: bool) -> tuple[dict | None, list[str]]:
+    """The previous run's manifest (None when not needed or there was no run) and, for an older gradekit
+    that wrote no listing, its files: those its manifest names.
+
+    Refuses a folder that holds other files and no sign of generate (a listing or its manifest.json),
+    as `grade` does: nothing gradekit did not write is ever replaced or removed.
+    """
+    listed = (out / LISTING).is_file()
+    path = out / "manifest.json"
+    data = None
+    if os.path.lexists(path) and (need_manifest or not listed):
+        data = _manifest_at(path)
+    elif listed and need_manifest:
+        raise GradekitError("expected the manifest.json of the previous generate run, got none", path=str(path))
+    if listed:
+        return data, []
+    if data is not None:
+        return data, _unlisted_outputs(data)
+    others = sorted(p.name for p in out.iterdir() if p != stage.root and p.name != StagedFolder.INCOMPLETE)
+    if others:
+        raise GradekitError(
+            f"expected an empty output folder or one gradekit generate wrote before, got a folder of other files "
+            f"({', '.join(others[:3])}{', …' if len(others) > 3 else ''}); choose another --out",
+            path=str(out),
+        )
+    return None, []
+
+
+def _manifest_at(path: Path) -> dict:
+    """The manifest.json generate wrote into OUT (refused when it is not one)."""
+    try:
+        if not path.is_file():
+            raise ValueError("not a regular file")
+        data = json.loads(path.read_bytes())
+        if not (isinstance(data, dict) and "gradekit" in data and isinstance(data.get("students"), dict)):
+            raise ValueError("another JSON document")
+    except (OSError, ValueError) as exc:
+        raise GradekitError(f"expected a manifest.json written by gradekit generate, got {exc}",
+                            path=str(path)) from None
+    return data
+
+
+def _unlisted_outputs(data: dict) -> list[str]:
+    """What an older gradekit (no listing) wrote into OUT: the fixed names and the documents of the
+    students its manifest names (a file of any other name is the user's)."""
+    found = ["key.csv", frozen.FILE, "manifest.json", "assignments.pdf", "keys.pdf"]
+    for safe in safe_names(data["students"]).values():
+        found += [f"students/{safe}/assignment.pdf", f"students/{safe}/answers.csv", f"keys/{safe}.pdf"]
     return sorted(found)
 
 
