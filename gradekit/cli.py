@@ -16,7 +16,17 @@ log = logging.getLogger("gradekit")
 
 
 class _Group(click.Group):
-    """The command group: Ctrl-C ends any command with exit 130 (128 + SIGINT) and one line."""
+    """The command group: Ctrl-C ends any command with exit 130 (128 + SIGINT) and one line; the command
+    list shows each command's first sentence whole (wrapped), never cut with "..."."""
+
+    group_class = type  # subgroups (bank) list their commands the same way
+
+    def format_commands(self, ctx: click.Context, formatter: click.HelpFormatter) -> None:
+        rows = [(name, cmd.get_short_help_str(limit=10_000)) for name in self.list_commands(ctx)
+                if (cmd := self.get_command(ctx, name)) is not None and not cmd.hidden]
+        if rows:
+            with formatter.section("Commands"):
+                formatter.write_dl(rows)
 
     def invoke(self, ctx: click.Context):
         try:
@@ -168,8 +178,8 @@ def bank_list(as_json: bool, bank: str | None) -> None:
 @bank.command("show")
 @click.argument("problem")
 @click.option("--student", default=None, help="Render that student's variant.")
-@click.option("--course", default="MEG373", show_default=True)
-@click.option("--salt", default="")
+@click.option("--course", default="MEG373", show_default=True, help="Course name (part of the seed).")
+@click.option("--salt", default="", help="Assignment salt (part of the seed).")
 @_bank_opt
 @_assignment_opts
 def bank_show(problem: str, student: str | None, course: str, salt: str, bank: str | None,
@@ -259,7 +269,11 @@ def grade(
     assignment: str, roster: str, submissions: str, out: str, manifest: str | None, reveal: bool,
     recompute_keys: bool, carry_forward: bool, bank: str | None,
 ) -> None:
-    """Grade every submission in SUBMISSIONS against keys recomputed from ASSIGNMENT and ROSTER."""
+    """Grade every submission (a folder, or an LMS's zip) against each student's key and write grades, LMS
+    imports, feedback and a report into OUT.
+
+    The keys are recomputed from ASSIGNMENT for each ROSTER student, or with --manifest are the keys frozen at
+    generation (keys.json)."""
     from gradekit import api
 
     bar = None
@@ -295,18 +309,21 @@ def grade(
 @click.option("--course", default="MEG373", show_default=True, help="Course name (part of the seed).")
 @click.option("--salt", default="", help="Assignment salt (part of the seed).")
 @click.option("--out", required=True, type=click.Path(file_okay=False), help="Folder for the figures.")
-@click.option("--format", "fmt", type=click.Choice(["svg", "png"]), default="svg", show_default=True)
+@click.option("--format", "fmt", type=click.Choice(["svg", "png"]), default="svg", show_default=True,
+              help="Image format of the files written.")
 @_bank_opt
+@_assignment_opts
 def figures(
-    problem: str, published: bool, student: str | None, course: str, salt: str, out: str, fmt: str, bank: str | None
+    problem: str, published: bool, student: str | None, course: str, salt: str, out: str, fmt: str, bank: str | None,
+    assignment: str | None, manifest: str | None,
 ) -> None:
-    """Write every figure of a variant (the scene and the key figures) for authors to preview."""
+    """Write every figure of a variant (the scene and the key figures) for authors to preview; with --student
+    and --assignment, those of that student's sheet."""
     from pathlib import Path
 
-    from gradekit.bank.registry import resolve
     from gradekit.figures import write_figures
 
-    v = _variant(resolve(problem, bank), published, student, None, course, salt)
+    v = _student_variant(problem, published, student, None, course, salt, 0, bank, assignment, manifest)
     for path in write_figures(v.result, Path(out), fmt):
         click.echo(str(path))
 
@@ -374,7 +391,7 @@ def _web_service(db: str | None, manifest: str | None, assignment: str | None = 
               help="manifest.json of generate: the class and its frozen keys.")
 @_db_opt
 @click.option("--host", default="127.0.0.1", show_default=True, help="Address to listen on.")
-@click.option("--port", type=click.IntRange(0, 65535), default=8000, show_default=True)
+@click.option("--port", type=click.IntRange(0, 65535), default=8000, show_default=True, help="Port to listen on.")
 @click.option("--prepare", is_flag=True, help="Create or migrate the database, record the course, and exit.")
 def serve(assignment: str, roster: str, manifest: str, db: str | None, host: str, port: int, prepare: bool) -> None:
     """Serve the page where students type or upload their answers and are graded at once."""

@@ -1,8 +1,10 @@
-"""What `gradekit solve` prints: round-off of a zero printed as 0, and no line another one already says."""
+"""What `gradekit solve` prints (round-off of a zero as 0, no line another one already says) and the
+figures `gradekit figures` draws of a student's sheet."""
 
 from __future__ import annotations
 
 import re
+from pathlib import Path
 
 from click.testing import CliRunner
 
@@ -36,3 +38,22 @@ def test_solve_prints_round_off_as_zero_and_no_repeated_line() -> None:
             assert not (f"{key}.mag" in keys and keys[f"{key}.mag"] == keys[key]), (name, key)
             if "@" in key and key.endswith(".mag"):
                 assert key.split("@")[0] + ".mag" not in keys, (name, key)
+
+
+def test_figures_of_a_students_sheet_come_from_the_assignment(tmp_path: Path) -> None:
+    """With --assignment, `figures --student` draws the variant on that student's sheet (the assignment's
+    course and salt); without it, values drawn for the course alone, as the note on stderr says."""
+    from gradekit import figures
+    from gradekit.assignment import sheet_variant
+
+    hw5 = Path(__file__).parents[1] / "examples" / "hw5.yaml"
+    runner = CliRunner()
+    r = runner.invoke(main, ["figures", "p1", "--student", "1001", "--assignment", str(hw5), "--out",
+                             str(tmp_path / "sheet")])
+    assert r.exit_code == 0, r.output
+    expected = {p.name: p.read_bytes() for p in figures.write_figures(sheet_variant(hw5, "p1", "1001").result,
+                                                                         tmp_path / "expected", "svg")}
+    assert {p.name: p.read_bytes() for p in (tmp_path / "sheet").iterdir()} == expected
+    other = runner.invoke(main, ["figures", "ch5-ex5-1", "--student", "1001", "--out", str(tmp_path / "course")])
+    assert other.exit_code == 0 and "not any assignment's sheet" in other.stderr
+    assert (tmp_path / "course" / "ch5-ex5-1-scene.svg").read_bytes() != expected["ch5-ex5-1-scene.svg"]
