@@ -9,8 +9,7 @@ from dataclasses import dataclass
 from gradekit import units
 from gradekit.assignment import Assignment, Item, keys_for
 from gradekit.documents import steps
-from gradekit.documents.typeset import Typ, num, paragraphs, string, text, unit
-from gradekit.documents.widths import cell, table
+from gradekit.documents.typeset import Typ, cell, formula, num, paragraphs, string, table, text, unit
 from gradekit.mechanics.model import GROUND, Prismatic
 from gradekit.pipeline import CaseResult, Result
 from gradekit.report import display_unit
@@ -28,6 +27,8 @@ class Picture:
     true_scale: bool = False
     scale_text: str = ""
     wide: bool = False  # a true-scale drawing wider than the text: placed on a landscape page
+    alt: str = ""  # the text alternative, written from the model as it was drawn
+    svg: bytes = b""  # the drawing itself (a sheet's HTML version inlines it)
 
 
 @dataclass(frozen=True)
@@ -120,7 +121,7 @@ def _scenes(res: Result, pictures: tuple[Picture, ...], before: int) -> list[dic
         if f.true_scale:
             k = printed_scale(res, cases[i] if i < len(cases) else None)
             scale = f"Drawn to scale {ratio_text(k)}: print at 100 % (no fit to page)." if k else f.scale_text
-        out.append({"path": f.path, "caption": f.caption, "true_scale": f.true_scale, "scale_text": scale,
+        out.append({"path": f.path, "caption": f.caption, "alt": f.alt, "true_scale": f.true_scale, "scale_text": scale,
                     "scale": ratio_text(k) if f.true_scale and k else "", "wide": wide,
                     "number": before + i + 1})
     return out
@@ -209,7 +210,7 @@ def sci(x: float) -> Typ:
     if -3 <= e <= 4:
         return num(x, 3)
     m = x / 10.0**e
-    return Typ(f"${num(m, 3)} times 10^({e})$")
+    return formula(f"{num(m, 3)} times 10^({e})")
 
 
 def quantity(value: float, unit: str, sig: int = 5) -> Typ:
@@ -266,7 +267,7 @@ def _case(res: Result, case: CaseResult) -> dict:
         else:
             a, b = j.a, j.b
         stem = f"F[{lab(a)},{lab(b)}]"
-        row = {"name": _joint_name(p, link, j), "symbol": Typ(f"$F_({_m(lab(a) + lab(b))})$"),
+        row = {"name": _joint_name(p, link, j), "symbol": formula(f"F_({_m(lab(a) + lab(b))})"),
                "x": q(stem + ".x"), "y": q(stem + ".y"), "mag": q(stem + ".mag"), "angle": q(stem + ".angle")}
         if isinstance(j, Prismatic):
             row["couple"] = q(f"M[{lab(a)},{lab(b)}]")
@@ -281,22 +282,22 @@ def _case(res: Result, case: CaseResult) -> dict:
                            "forces": [q(f"{row_stem(lab, j)}@{gl}.mag") for j in link.joints]})
         groups.append({"name": "total", "driver": q("driver"),
                        "forces": [q(f"{row_stem(lab, j)}.mag") for j in link.joints]})
-    group_columns = [Typ(f"$F_({_m(_pair(lab, j))})$") for j in link.joints]
+    group_columns = [formula(f"F_({_m(_pair(lab, j))})") for j in link.joints]
     forces_table = table(
-        [[Typ("Joint"), Typ("Force"), Typ("$x$"), Typ("$y$"), Typ("Magnitude"), Typ("Angle")]]
+        [[Typ("Joint"), Typ("Force"), formula("x"), formula("y"), Typ("Magnitude"), Typ("Angle")]]
         + [[cell(f["name"]), f["symbol"], f["x"], f["y"], f["mag"], f["angle"]] for f in forces],
         ["auto"] * 6, ["right"] * 6)
     groups_table = table(
-        [[Typ("Part"), Typ(f"${driver['symbol']}$"), *group_columns]]
+        [[Typ("Part"), formula(driver["symbol"]), *group_columns]]
         + [[cell(g["name"]), g["driver"], *g["forces"]] for g in groups],
         ["auto"] * (2 + len(group_columns)), ["right"] * (2 + len(group_columns))) if groups else None
     st = _steps(res, case, display_unit(p, "N*m" if link.driver.kind == "torque" else "N"))
     if st["matrix"] is not None:
         mx = st["matrix"]
         n = len(mx["columns"]) + 2
-        st["matrix"] = mx | {"table": table(
-            [[Typ(""), *mx["columns"], Typ("$b$")]] + [[r["head"], *r["cells"], r["b"]] for r in mx["rows"]],
-            ["auto"] * n, ["right"] * n, size=6.0 if n > 13 else 7.5, inset=(2.0, 2.0))}
+        st["matrix"] = mx | {"size": Typ(f"{6.0 if n > 13 else 7.5:g}pt"), "table": table(
+            [[Typ(""), *mx["columns"], formula("b")]] + [[r["head"], *r["cells"], r["b"]] for r in mx["rows"]],
+            ["auto"] * n, ["right"] * n, inset=(2.0, 2.0))}
     return {
         "name": case.name or "",
         "kinematics": kin,
@@ -337,9 +338,7 @@ def _group_label(p, group: str) -> str:
     return group
 
 
-def _m(s: str) -> str:
-    """Text inside Typst math, quoted so that ``01`` or ``crank`` print as written."""
-    return '"' + s.replace("\\", "\\\\").replace('"', '\\"') + '"'
+_m = steps.m  # text inside Typst math, quoted
 
 
 def _steps(res: Result, case: CaseResult, driver_unit: str) -> dict:

@@ -449,6 +449,7 @@ def _one(s: Student, safe: str) -> _Done:
     root: Path = _STATE["root"]
     comp: typeset.Compiler = _STATE["compiler"]
     warnings = _font_warnings(s)
+    accessible = not warnings  # PDF/UA-1 refuses a glyph no font draws: a tagged PDF then
     build = root / "s" / safe
     build.mkdir(parents=True, exist_ok=True)
     solved = []
@@ -460,8 +461,8 @@ def _one(s: Student, safe: str) -> _Done:
     folder.mkdir(parents=True, exist_ok=True)
     ctx = build_context(asg, s, solved, key=False) | {"fonts": _STATE["fonts"]}
     body = typeset.render("assignment.typ.j2", ctx)
-    meta = _metadata(f"{asg.course} {asg.title}: assignment of {s.student_id}", asg.course)
-    atomic_write(folder / "assignment.pdf", comp.pdf(meta + body))
+    meta = _metadata(f"{asg.course} {asg.title}: {s.display} ({s.student_id})", asg.course)
+    atomic_write(folder / "assignment.pdf", comp.pdf(meta + body, accessible=accessible))
     rows = []
     key_rows = []
     for sv in solved:
@@ -472,13 +473,16 @@ def _one(s: Student, safe: str) -> _Done:
     if job.keys:
         kctx = build_context(asg, s, solved, key=True) | {"fonts": _STATE["fonts"]}
         kbody = typeset.render("key.typ.j2", kctx)
-        meta = _metadata(f"{asg.course} {asg.title}: worked key for {s.student_id}", asg.course)
-        atomic_write(out / "keys" / f"{safe}.pdf", comp.pdf(meta + kbody))
+        meta = _metadata(f"{asg.course} {asg.title}: worked key, {s.display} ({s.student_id})", asg.course)
+        atomic_write(out / "keys" / f"{safe}.pdf", comp.pdf(meta + kbody, accessible=accessible))
     return _Done(s.student_id, key_rows, warnings)
 
 
 def _metadata(title: str, author: str) -> str:
-    return f"#set document(title: {typeset.string(title)}, author: {typeset.string(author)}, date: none)\n"
+    """The document's title (a PDF/UA-1 reader shows it, and the combined PDFs name each student's
+    bookmark with it), author and language."""
+    return (f"#set document(title: {typeset.string(title)}, author: {typeset.string(author)}, date: none)\n"
+            '#set text(lang: "en")\n')
 
 
 def _key_row(e) -> list:
@@ -501,7 +505,8 @@ def _font_warnings(s: Student) -> list[str]:
         return []
     msg = (
         f"student {s.student_id}: no installed font draws {missing!r} of the name {s.display!r}; "
-        f"it prints as empty boxes (install {typeset.font_hint(missing)})"
+        f"it prints as empty boxes and their documents are tagged PDF, not PDF/UA-1 "
+        f"(install {typeset.font_hint(missing)})"
     )
     return [msg]  # reported once, by the caller, from GenerateSummary.warnings
 
@@ -527,7 +532,7 @@ def _pictures(result, label: str, build: Path, safe: str, keys: bool, warnings: 
     cases = [c.name for c in result.cases] if len(result.cases) > 1 else [None]
     for case in cases:
         name = f"{label}-scene{'-' + _slug(case) if case else ''}.svg"
-        svg = _drawn(result, ("scene", case, true_scale))
+        svg, alt = _drawn(result, ("scene", case, true_scale))
         (build / name).write_bytes(svg)
         scale, wide = "", False
         if true_scale:
@@ -540,13 +545,13 @@ def _pictures(result, label: str, build: Path, safe: str, keys: bool, warnings: 
                     f"wider than a landscape page's text ({LANDSCAPE_WIDTH_PT:.0f} pt)"
                 )
         caption = f"{label}: {p.title}" + (f", position {case}" if case else "") + "."
-        scenes.append(Picture(f"/s/{safe}/{name}", caption, true_scale, scale, wide))
+        scenes.append(Picture(f"/s/{safe}/{name}", caption, true_scale, scale, wide, alt, svg))
     pics = []
     if keys:
-        for slug, caption, svg in _drawn(result, ("key",)):
+        for slug, caption, svg, alt in _drawn(result, ("key",)):
             name = f"{label}-key-{_slug(slug)}.svg"
             (build / name).write_bytes(svg)
-            pics.append(Picture(f"/s/{safe}/{name}", caption))
+            pics.append(Picture(f"/s/{safe}/{name}", caption, alt=alt))
     return scenes, pics
 
 
@@ -555,7 +560,8 @@ _DRAWN_MAX = 256
 
 
 def _drawn(result, what: tuple):
-    """SVG of a scene, or (slug, caption, SVG) of the key figures, drawn once per distinct variant.
+    """(SVG, alt text) of a scene, or (slug, caption, SVG, alt text) of the key figures, drawn once per
+    distinct variant.
 
     Students share a variant when a problem has few (or no) random parameters; drawing is most
     of the cost of a run, so each process remembers the last few hundred it drew.
@@ -568,9 +574,9 @@ def _drawn(result, what: tuple):
     if hit is not None:
         return hit
     if what[0] == "scene":
-        out = figures.scene_svg(result, what[1], true_scale=what[2])
+        out = figures.scene_described(result, what[1], true_scale=what[2])
     else:
-        out = figures.key_figure_svgs(result)
+        out = figures.key_figures_described(result)
     if len(_DRAWN) >= _DRAWN_MAX:
         _DRAWN.pop(next(iter(_DRAWN)))
     _DRAWN[cache_key] = out
@@ -615,17 +621,19 @@ def _combine(out: Path, asg: Assignment, safes: list[str], keys: bool, pool=None
 
 
 def _concatenate(target: Path, parts: list[Path], title: str, author: str) -> None:
-    """*parts* one after the other in *target*, each starting on an odd page (duplex), with every
-    part's bookmarks kept under it.
+    """*parts* one after the other in *target*, each starting on an odd page (duplex), each under a
+    bookmark of its own named by the part's title (the student), with the part's bookmarks under it,
+    and with the parts' tags: one structure tree holding each part's, the language, /MarkInfo.
 
-    pikepdf (qpdf) copies the objects without parsing them in Python. The page tree and the outline
-    are linked here rather than through pikepdf's page list and outline helpers, which made the time
-    grow with the square of the class: appending a page cost time in proportion to the pages
-    already there (8 ms a part at 300 students and growing), and each bookmark took 0.2 ms. Each
-    part's pages hang under a page-tree node of their own (a nested page tree, ISO 32000 §7.7.3.2),
-    and each part's bookmarks are its own outline items, copied whole: qpdf maps their
-    destinations to the pages copied before them. qpdf gives a page what it inherits from its page
-    tree (size, resources) when it copies the page.
+    pikepdf (qpdf) copies the objects without parsing them in Python; it copies every object of one
+    part once, so the copied structure elements point at the copied pages. The page tree and the
+    outline are linked here rather than through pikepdf's page list and outline helpers, which made
+    the time grow with the square of the class. Each part's pages hang under a page-tree node of
+    their own (a nested page tree, ISO 32000 §7.7.3.2). The structure tree (ISO 32000 §14.7): each
+    part's top elements become children of one root; its parent-tree keys (a page's
+    /StructParents, an annotation's /StructParent) move past those of the parts before it; its
+    element ids (a table's header cells, which the data cells name in /Headers) get the part's
+    number as a prefix, as two students' tables have the same ids.
     """
     import io
 
@@ -634,10 +642,17 @@ def _concatenate(target: Path, parts: list[Path], title: str, author: str) -> No
 
     out = pikepdf.Pdf.new()
     root = out.Root.Pages
+    tree = out.make_indirect(Dictionary(Type=Name.StructTreeRoot))
     nodes: list = []
-    bookmarks: list = []  # every part's top-level outline items, in order
+    bookmarks: list = []  # one per part, the part's own outline items under it
+    elements: list = []  # every part's top structure elements, in order
+    nums: list = []  # the merged parent tree's (key, value) pairs
+    ids: list = []  # the merged id tree's (id, element) pairs
+    roles: dict = {}
+    lang = None
     total = 0
-    for path in parts:
+    next_key = 0
+    for number, path in enumerate(parts):
         with pikepdf.Pdf.open(path) as src:
             node = out.make_indirect(Dictionary(Type=Name.Pages, Parent=root))
             kids = []
@@ -654,33 +669,155 @@ def _concatenate(target: Path, parts: list[Path], title: str, author: str) -> No
             node.Count = len(kids)
             nodes.append(node)
             total += len(kids)
-            if Name.Outlines in src.Root and copies:
-                item = out.copy_foreign(src.Root.Outlines).get(Name.First)
-                while item is not None:
-                    _fix_destinations(item, copies[0])
-                    bookmarks.append(item)
-                    item = item.get(Name.Next)
+            lang = lang if lang is not None else src.Root.get(Name.Lang)
+            if copies:
+                mark = out.make_indirect(Dictionary(Title=pikepdf.String(_part_title(src, path)),
+                                                    Dest=Array([copies[0], Name.Fit])))
+                inner = []
+                if Name.Outlines in src.Root:
+                    item = out.copy_foreign(src.Root.Outlines).get(Name.First)
+                    while item is not None:
+                        _fix_destinations(item, copies[0])
+                        inner.append(item)
+                        item = item.get(Name.Next)
+                _link(mark, inner)
+                bookmarks.append(mark)
+            if Name.StructTreeRoot in src.Root:
+                next_key = _merge_structure(out.copy_foreign(src.Root.StructTreeRoot), copies, tree, number,
+                                            next_key, elements, nums, ids, roles)
     root.Kids = Array(nodes)
     root.Count = total
     if bookmarks:
-        outlines = out.make_indirect(Dictionary(Type=Name.Outlines, First=bookmarks[0], Last=bookmarks[-1]))
-        visible = 0
-        for before, item, after in zip([None, *bookmarks[:-1]], bookmarks, [*bookmarks[1:], None], strict=True):
-            item.Parent = outlines
-            for key, other in ((Name.Prev, before), (Name.Next, after)):
-                if other is None:
-                    if key in item:
-                        del item[key]
-                else:
-                    item[key] = other
-            visible += 1 + max(int(item.get(Name.Count, 0)), 0)
-        outlines.Count = visible
+        outlines = out.make_indirect(Dictionary(Type=Name.Outlines))
+        outlines.Count = _link(outlines, bookmarks)
         out.Root.Outlines = outlines
+    if elements:
+        tree.K = Array(elements)
+        tree.ParentTree = out.make_indirect(Dictionary(Nums=Array([x for pair in nums for x in pair])))
+        tree.ParentTreeNextKey = next_key
+        if ids:
+            tree.IDTree = out.make_indirect(Dictionary(Names=Array([x for pair in sorted(ids) for x in pair])))
+        if roles:
+            tree.RoleMap = Dictionary(roles)
+        out.Root.StructTreeRoot = tree
+        out.Root.MarkInfo = Dictionary(Marked=True)
+    if lang is not None:
+        out.Root.Lang = lang
+    out.Root.ViewerPreferences = Dictionary(DisplayDocTitle=True)
     out.docinfo["/Title"] = title
     out.docinfo["/Author"] = author
     buf = io.BytesIO()
     out.save(buf, deterministic_id=True)  # the same parts give the same bytes
     atomic_write(target, buf.getvalue())
+
+
+def _part_title(src, path: Path) -> str:
+    """A part's title (the student's document title), else its file name."""
+    import pikepdf
+
+    title = src.docinfo.get(pikepdf.Name.Title) if src.docinfo is not None else None
+    return str(title) if title is not None else path.stem
+
+
+def _link(parent, items: list) -> int:
+    """Hang outline *items* under *parent* as its children (First, Last, Prev, Next, Parent); returns
+    how many are visible below *parent* (its /Count when open)."""
+    import pikepdf
+    from pikepdf import Name
+
+    if not items:
+        return 0
+    parent.First, parent.Last = items[0], items[-1]
+    visible = 0
+    for before, item, after in zip([None, *items[:-1]], items, [*items[1:], None], strict=True):
+        item.Parent = parent
+        for key, other in ((Name.Prev, before), (Name.Next, after)):
+            if other is None:
+                if key in item:
+                    del item[key]
+            else:
+                item[key] = other
+        visible += 1 + max(int(item.get(Name.Count, 0)), 0)
+    if not isinstance(parent.get(Name.Type), pikepdf.Name):  # an outline item, not the outline root
+        parent.Count = visible
+    return visible
+
+
+def _tree_pairs(node, key: str) -> list:
+    """The (key, value) pairs of a number tree (*key* "/Nums") or name tree ("/Names"), leaves in order."""
+    out = []
+    leaf = node.get(key)
+    if leaf is not None:
+        out += [(leaf[i], leaf[i + 1]) for i in range(0, len(leaf) - 1, 2)]
+    for kid in node.get("/Kids", []):
+        out += _tree_pairs(kid, key)
+    return out
+
+
+def _merge_structure(part, pages: list, tree, number: int, start: int, elements: list, nums: list, ids: list,
+                     roles: dict) -> int:
+    """Add one part's copied structure tree *part* to the combined *tree* (see `_concatenate`);
+    returns the next free parent-tree key."""
+    import pikepdf
+    from pikepdf import Array, Name
+
+    pairs = _tree_pairs(part.ParentTree, "/Nums") if Name.ParentTree in part else []
+    used = max((int(k) for k, _ in pairs), default=-1) + 1
+    end = start + max(int(part.get(Name.ParentTreeNextKey, used)), used)
+    nums += [(int(k) + start, v) for k, v in pairs]
+    for page in pages:
+        if Name.StructParents in page:
+            page.StructParents = int(page.StructParents) + start
+        for annot in page.get(Name.Annots, []):
+            if Name.StructParent in annot:
+                annot.StructParent = int(annot.StructParent) + start
+    kids = part.K if isinstance(part.get(Name.K), Array) else [part.K] if Name.K in part else []
+    for kid in kids:
+        if isinstance(kid, pikepdf.Dictionary):
+            kid.P = tree
+        elements.append(kid)
+    prefix = f"p{number}-"
+    renamed = {}
+    for name, element in (_tree_pairs(part.IDTree, "/Names") if Name.IDTree in part else []):
+        new = prefix + bytes(name).decode("latin-1")
+        renamed[bytes(name)] = pikepdf.String(new)
+        element.ID = pikepdf.String(new)
+        ids.append((new, element))
+    if renamed:  # a data cell names its header cells by id: the new ids
+        for cell in _cells_naming(ids[-len(renamed):]):
+            for attrs in (cell.A if isinstance(cell.A, Array) else [cell.A]):
+                if isinstance(attrs, pikepdf.Dictionary) and Name.Headers in attrs:
+                    attrs.Headers = Array([renamed.get(bytes(h), h) for h in attrs.Headers])
+    for role, target in (part.get(Name.RoleMap) or {}).items():
+        roles.setdefault(role, target)
+    return end
+
+
+def _cells_naming(named: list) -> list:
+    """The cells (with attributes) of every table that holds one of the *named* elements."""
+    import pikepdf
+    from pikepdf import Name
+
+    tables, seen = [], set()
+    for _, element in named:
+        t = element
+        while t is not None and t.get(Name.S) not in (Name.Table,):
+            t = t.get(Name.P)
+        if t is not None and t.objgen not in seen:
+            seen.add(t.objgen)
+            tables.append(t)
+    parts = (Name.TR, Name.THead, Name.TBody, Name.TFoot, Name.TH, Name.TD)
+    cells = []
+    stack = list(tables)
+    while stack:
+        kids = stack.pop().get(Name.K)
+        kids = list(kids) if isinstance(kids, pikepdf.Array) else [kids] if kids is not None else []
+        for k in kids:
+            if isinstance(k, pikepdf.Dictionary) and k.get(Name.S) in parts:
+                stack.append(k)
+                if Name.A in k:
+                    cells.append(k)
+    return cells
 
 
 def _fix_destinations(item, first) -> None:

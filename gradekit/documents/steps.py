@@ -16,7 +16,7 @@ from types import SimpleNamespace
 import numpy as np
 
 from gradekit import units
-from gradekit.documents.typeset import Typ, num, text
+from gradekit.documents.typeset import Typ, formula, num, text
 from gradekit.mechanics.mechanisms import KINDS, carriers
 from gradekit.mechanics.model import GROUND, Prismatic
 from gradekit.report import display_unit
@@ -131,17 +131,17 @@ def kinematics(p, sol) -> dict:
     for left, right in kind.closure:
         def side(chain):
             return " + ".join(nm.r(a, b) for a, b, _ in chain)
-        closure.append(Typ(f"${side(left)} = {side(right)}$"))
+        closure.append(formula(f"{side(left)} = {side(right)}"))
         for a, b, _ in (*left, *right):
             r = (pts[b].pos() - pts[a].pos()) * kl
             if float(np.hypot(*r)) <= 1e-12 * scale * kl:
                 continue
-            closure.append(Typ(f"${nm.r(a, b)} = {n(float(np.hypot(*r)))} {_u(lu)} angle "
+            closure.append(formula(f"{nm.r(a, b)} = {n(float(np.hypot(*r)))} {_u(lu)} angle "
                                f"{n(math.degrees(math.atan2(r[1], r[0])) % 360.0, SIG)} degree = "
-                               f"{_vec([_clean(c, scale * kl) for c in r])} {_u(lu)}$"))
+                               f"{_vec([_clean(c, scale * kl) for c in r])} {_u(lu)}"))
     branch = {1: "open", -1: "crossed"}.get(p.branch, str(p.branch))
     for b in link.bodies:
-        position.append(Typ(f"${th[b]} = {n(angle[b])} degree$"))
+        position.append(formula(f"{th[b]} = {n(angle[b])} degree"))
     result = {"closure": closure, "position": position,
               "branch": f"{branch}: {_own_names(p, kind)}" if kind.closure else "",
               "velocity": [], "acceleration": [], "centres": [], "slides": False}
@@ -201,10 +201,10 @@ def kinematics(p, sol) -> dict:
             vn.append(" + ".join(cn) or "0")
             asy.append(" + ".join(ds) or "0")
             an.append(" + ".join(dn) or "0")
-        vel.append(Typ(f"${vs[0]} = {vs[1]}$"))
-        vel.append(Typ(f"${vn[0]} = {vn[1]}$ #h(0.5em) ({_u(vu)[1:-1]})"))
-        acc.append(Typ(f"${asy[0]} = {asy[1]}$"))
-        acc.append(Typ(f"${an[0]} = {an[1]}$ #h(0.5em) ({_u(au)[1:-1]})"))
+        vel.append(formula(f"{vs[0]} = {vs[1]}"))
+        vel.append(Typ(formula(f"{vn[0]} = {vn[1]}") + f" #h(0.5em) ({text(units.pretty(vu))})"))
+        acc.append(formula(f"{asy[0]} = {asy[1]}"))
+        acc.append(Typ(formula(f"{an[0]} = {an[1]}") + f" #h(0.5em) ({text(units.pretty(au))})"))
         sol_v, sol_a = [], []
         for b in dict.fromkeys(new):
             sol_v.append(f"{w[b]} = {n(omega[b])} {_u('rad/s')}")
@@ -215,18 +215,18 @@ def kinematics(p, sol) -> dict:
             sol_v.append(f"dot(s)_({m(nm.pt(at))}) = {n(sdot * kv)} {_u(vu)}")
             sol_a.append(f"dot.double(s)_({m(nm.pt(at))}) = {n(sdd.get(at, 0.0))} {_u(au)}")
         if sol_v:
-            vel.append(Typ("$arrow.double.r " + ", #h(0.6em) ".join(sol_v) + "$"))
-            acc.append(Typ("$arrow.double.r " + ", #h(0.6em) ".join(sol_a) + "$"))
+            vel.append(formula("arrow.double.r " + ", #h(0.6em) ".join(sol_v)))
+            acc.append(formula("arrow.double.r " + ", #h(0.6em) ".join(sol_a)))
     result["velocity"], result["acceleration"] = vel, acc
     # velocity and acceleration of each named point, then of each mass centre
     for name, q in pts.items():
         if name.startswith("+") or float(np.hypot(*q.vel())) == 0 and float(np.hypot(*q.acc())) == 0:
             continue
         v, a = q.vel() * kv, q.acc() * ka
-        result["centres"].append(Typ(
-            f"$arrow(v)_({m(nm.pt(name))}) = {_vec(v)} {_u(vu)}, #h(0.4em) abs(arrow(v)_({m(nm.pt(name))})) = "
+        result["centres"].append(formula(
+            f"arrow(v)_({m(nm.pt(name))}) = {_vec(v)} {_u(vu)}, #h(0.4em) abs(arrow(v)_({m(nm.pt(name))})) = "
             f"{n(float(np.hypot(*v)))} {_u(vu)}; #h(0.8em) arrow(a)_({m(nm.pt(name))}) = {_vec(a)} {_u(au)}, "
-            f"#h(0.4em) abs(arrow(a)_({m(nm.pt(name))})) = {n(float(np.hypot(*a)))} {_u(au)}$"))
+            f"#h(0.4em) abs(arrow(a)_({m(nm.pt(name))})) = {n(float(np.hypot(*a)))} {_u(au)}"))
     for b, st in sol.states.items():
         if not (st.mass or st.inertia):
             continue
@@ -246,7 +246,7 @@ def kinematics(p, sol) -> dict:
         mag = float(np.hypot(*ag))
         line += (f", #h(0.4em) abs(arrow(a)_(G {nm.body(b)})) = {n(mag)} {_u(au)} angle "
                  f"{n(math.degrees(math.atan2(ag[1], ag[0])) % 360.0) if mag else '0'} degree")
-        result["centres"].append(Typ(f"${line}$"))
+        result["centres"].append(formula(line))
     return result
 
 
@@ -270,21 +270,22 @@ def inertia(p, sol) -> list[Typ]:
         fim = float(np.hypot(*fi)) * units.factor("N", fu)
         mass = units.convert(st.mass, "kg", mu)
         ang = math.degrees(math.atan2(fi[1], fi[0])) % 360.0 if fim else 0.0
-        out.append(Typ(
-            f"$arrow(F)_(i {L}) = -m_({L}) arrow(a)_(G {L}) = -({n(mass)} {_u(mu)}) "
+        out.append(formula(
+            f"arrow(F)_(i {L}) = -m_({L}) arrow(a)_(G {L}) = -({n(mass)} {_u(mu)}) "
             f"{_vec(ag * units.factor('m/s**2', au))} {_u(au)} = {_vec(fi * units.factor('N', fu))} {_u(fu)}, "
-            f"#h(0.4em) abs(arrow(F)_(i {L})) = {n(fim)} {_u(fu)} angle {n(ang)} degree$"))
+            f"#h(0.4em) abs(arrow(F)_(i {L})) = {n(fim)} {_u(fu)} angle {n(ang)} degree"))
         ci = float(st.inertia_couple) * units.factor("N*m", tu)
-        out.append(Typ(
-            f"$C_(i {L}) = -I_(G {L}) alpha_({L}) = -({n(units.convert(st.inertia, 'kg*m**2', iu))} {_u(iu)}) "
-            f"({n(st.alpha)} {_u('rad/s**2')}) = {n(ci)} {_u(tu)}$"))
+        out.append(formula(
+            f"C_(i {L}) = -I_(G {L}) alpha_({L}) = -({n(units.convert(st.inertia, 'kg*m**2', iu))} {_u(iu)}) "
+            f"({n(st.alpha)} {_u('rad/s**2')}) = {n(ci)} {_u(tu)}"))
         if offsets and fim and ci:
             h = st.offset * units.factor("m", lu)
             out.append(Typ(
-                f"$h_({L}) = (I_(G {L}) abs(alpha_({L}))) / (m_({L}) abs(arrow(a)_(G {L}))) = "
-                f"abs(C_(i {L})) / abs(arrow(F)_(i {L})) = {n(h)} {_u(lu)}$ "
-                f"#h(0.4em) (the offset force $arrow(F)_(i {L})$ acts at $h_({L})$ from $G_({L})$, on the side "
-                f"that gives its moment about $G_({L})$ the sense of $C_(i {L})$)"))
+                formula(f"h_({L}) = (I_(G {L}) abs(alpha_({L}))) / (m_({L}) abs(arrow(a)_(G {L}))) = "
+                        f"abs(C_(i {L})) / abs(arrow(F)_(i {L})) = {n(h)} {_u(lu)}")
+                + f" #h(0.4em) (the offset force {formula(f'arrow(F)_(i {L})')} acts at {formula(f'h_({L})')} "
+                f"from {formula(f'G_({L})')}, on the side that gives its moment about {formula(f'G_({L})')} the "
+                f"sense of {formula(f'C_(i {L})')})"))
     return out
 
 
@@ -362,7 +363,7 @@ def equilibrium(p, sol) -> dict:
         lines = []
         for i, head in enumerate(("sum F_x", "sum F_y", f"sum M_({m(oname)})")):
             r = 3 * k + i
-            heads.append(Typ(f"${head}$ ({p.label(body)})"))
+            heads.append(Typ(f"{formula(head)} ({text(p.label(body))})"))
             sym, numeric, solved = [], [], []
             for c, s in enumerate(syms):
                 a = Ad[r, c]
@@ -398,17 +399,17 @@ def equilibrium(p, sol) -> dict:
             symtxt = symtxt[2:] if symtxt.startswith("+ ") else symtxt
             numtxt = _signed_coef(numeric)
             soltxt = _signed([(v, "") for v in solved])
-            lines.append({"symbolic": Typ(f"${head} = {symtxt or '0'} = 0$"),
-                          "numbers": Typ(f"${numtxt} = 0$"),
-                          "solved": Typ(f"${soltxt} = 0$"),
+            lines.append({"symbolic": formula(f"{head} = {symtxt or '0'} = 0"),
+                          "numbers": formula(f"{numtxt} = 0"),
+                          "solved": formula(f"{soltxt} = 0"),
                           "terms": [n(v) for v in solved]})
         links.append({"body": p.label(body), "name": body, "point": oname, "lines": lines})
     matrix = {
-        "columns": [Typ(f"${s}$") for s in syms],
+        "columns": [formula(s) for s in syms],
         "rows": [{"head": heads[r], "cells": [num(0.0 if abs(Ad[r, c]) <= 1e-12 * float(np.max(np.abs(Ad[r])))
                                                   else Ad[r, c], COEF_SIG) for c in range(len(syms))],
                   "b": num(_clean(b[r], fscale), SIG)} for r in range(len(heads))],
-        "x": [{"symbol": Typ(f"${s}$"), "value": num(_clean(x[c], fscale), SIG)} for c, s in enumerate(syms)],
+        "x": [{"symbol": formula(s), "value": num(_clean(x[c], fscale), SIG)} for c, s in enumerate(syms)],
         "units": f"force rows in {units.pretty(fu)}, moment rows in {units.pretty(tu)}; force unknowns in "
                  f"{units.pretty(fu)}, couples in {units.pretty(tu)} (moment arms in {units.pretty(arm_u)})",
     }
@@ -577,7 +578,8 @@ def superposition(p, sol, driver_unit: str) -> list[Typ]:
     names = " + ".join(f"{sym}_({m(_part(p, g))})" for g, _ in parts)
     values = _signed([(v, "") for _, v in parts], zeros=True)
     total = n(sol.total.driver * k)
-    return [Typ(f"${sym} = {names}$"), Typ(f"${sym} = {values} = {total}$ {units.pretty(driver_unit)}")]
+    summed = formula(f"{sym} = {values} = {total}")
+    return [formula(f"{sym} = {names}"), Typ(f"{summed} {text(units.pretty(driver_unit))}")]
 
 
 def _part(p, group: str) -> str:

@@ -5,6 +5,7 @@ from __future__ import annotations
 import logging
 import math
 import re
+from collections.abc import Sequence
 from functools import lru_cache
 from pathlib import Path
 
@@ -58,6 +59,120 @@ def unit(u: str) -> Typ:
     return text(units.pretty(u)) if u else Typ("")
 
 
+def cell(*parts: Typ | str | int) -> Typ:
+    """One table cell's markup from *parts*: markup as it is, text escaped, integers as written."""
+    out = []
+    for p in parts:
+        if isinstance(p, Typ):
+            out.append(p)
+        elif isinstance(p, str):
+            out.append(text(p))
+        elif isinstance(p, int) and not isinstance(p, bool):
+            out.append(str(p))
+        else:
+            raise TypeError(f"a table cell printed {p!r}: print text, markup or a formatted number")
+    return Typ("".join(out))
+
+
+def table(cells: Sequence[Sequence[Typ]], columns: Sequence[str], align: Sequence[str], *,
+          size: float = 10.0, inset: tuple[float, float] = (4.0, 3.0)) -> Typ:
+    """A whole table as markup: *cells* are rows of cell markup, the first row the header.
+
+    The header is a ``table.header``: Typst repeats it on every page the table runs onto and tags
+    its cells as header cells (TH) in the PDF. Columns (``"auto"`` or ``"1fr"``) and rows are laid
+    out by Typst itself.
+    """
+    head, *body = [list(r) for r in cells]
+    inner = (f"#table(columns: ({', '.join(columns)},), inset: (x: {inset[0]:g}pt, y: {inset[1]:g}pt), "
+             f"align: ({', '.join(align)},),\n"
+             f"  table.header({''.join(f'[{c}], ' for c in head)}),\n"
+             + "\n".join("  " + "".join(f"[{c}], " for c in row) for row in body) + "\n)")
+    return Typ(inner if size == 10.0 else f"#text({size:g}pt)[{inner}]")
+
+
+def formula(src: str) -> Typ:
+    """Inline math *src* (Typst math, as gradekit writes it) with its spoken form as the equation's
+    alt text (`speak`): PDF/UA-1 asks a text alternative of every formula."""
+    return Typ(f"#[#set math.equation(alt: {string(speak(src))});${src}$]")
+
+
+_UNIT_WORDS = {"N": "newton", "kN": "kilonewton", "mN": "millinewton", "m": "metre", "mm": "millimetre",
+               "cm": "centimetre", "km": "kilometre", "in": "inch", "ft": "foot", "lb": "pound",
+               "lbf": "pound-force", "kip": "kip", "kg": "kilogram", "g": "gram", "s": "second",
+               "min": "minute", "rad": "radian", "rev": "revolution", "rpm": "revolutions per minute",
+               "slug": "slug", "deg": "degree", "°": "degree"}
+_PLURAL = {"inch": "inches", "foot": "feet", "revolutions per minute": "revolutions per minute"}
+_POWERS = {"²": " squared", "³": " cubed"}
+_MATH_WORDS = {"=": "equals", "+": "plus", "-": "minus", "−": "minus", "times": "times", "dot": "dot",
+               "angle": "at angle", "degree": "degrees", "arrow.double.r": "hence", "sum": "sum of",
+               "/": "over", ",": ",", ";": ";", "'": "prime"}
+_MATH_TOKEN = re.compile(r'"(?:[^"\\]|\\.)*"|#h\([^)]*\)|[A-Za-z]+(?:\.[a-z]+)*|[0-9]+(?:\.[0-9]+)?|\S')
+
+
+def spoken_unit(u: str) -> str | None:
+    """``N·m`` -> 'newton metres', ``m/s²`` -> 'metres per second squared'; None when *u* is not a unit."""
+    num, _, den = u.partition("/")
+
+    def words(part: str) -> list[str] | None:
+        out = []
+        for piece in filter(None, part.split("·")):
+            power = _POWERS.get(piece[-1], "")
+            base = piece[:-1] if power else piece
+            if base not in _UNIT_WORDS:
+                return None
+            out.append(_UNIT_WORDS[base] + power)
+        return out or None
+
+    top, bottom = words(num), (words(den) if den else [])
+    if top is None or bottom is None:
+        return None
+    last = top[-1]
+    stem, power = (last.split(" ", 1) + [""])[:2] if " " in last and last.split(" ", 1)[1] in ("squared", "cubed") \
+        else (last, "")
+    top[-1] = (_PLURAL.get(stem, stem + "s") + (" " + power if power else ""))
+    return " ".join(top) + (" per " + " ".join(bottom) if bottom else "")
+
+
+def speak(src: str) -> str:
+    """The spoken form of a formula gradekit writes in Typst math: ``T = −1.176 "N·m"`` -> 'T equals
+    minus 1.176 newton metres'; ``arrow(r)_("AB")`` -> 'vector r sub AB'; ``abs(x)`` -> 'magnitude of
+    x'; ``(a) / (b)`` -> 'a over b'. Quoted text is read as written (a unit in words)."""
+    tokens = _MATH_TOKEN.findall(src)
+    out: list[str] = []
+    wrappers = {"arrow": "vector", "hat": "unit vector", "abs": "magnitude of", "dot": "rate of",
+                "dot.double": "second rate of"}
+    depth_words: list[str] = []
+    for i, t in enumerate(tokens):
+        nxt = tokens[i + 1] if i + 1 < len(tokens) else ""
+        if t.startswith("#h("):
+            out.append(",")
+        elif t.startswith('"'):
+            inner = t[1:-1].replace('\\"', '"').replace("\\\\", "\\")
+            out.append(spoken_unit(inner) or inner)
+        elif t in wrappers and nxt == "(":
+            out.append(wrappers[t])
+            depth_words.append(t)
+        elif t == "(":
+            bare = not (i and (tokens[i - 1] in wrappers or tokens[i - 1] in ("_", "^")))
+            depth_words.append("(" if bare else "")
+            out.append("(" if bare else "")
+        elif t == ")":
+            out.append(depth_words.pop() and ")" if depth_words else "")
+        elif t == "_":
+            out.append("sub")
+        elif t == "^":
+            out.append("squared" if nxt == "2" else "to the power")
+            if nxt == "2":
+                tokens[i + 1] = ""
+        elif t in _MATH_WORDS:
+            out.append(_MATH_WORDS[t])
+        elif t:
+            out.append(t)
+    text_ = re.sub(r"\(\s+", "(", " ".join(w for w in out if w))
+    text_ = re.sub(r"\s+([,;)])", r"\1", text_)
+    return re.sub(r"([,;])(\s*[,;])+", r"\1", text_).strip()
+
+
 def _finalize(value: object) -> object:
     """Every ``{{ }}`` output: markup passes, text is escaped, floats must go through ``num``."""
     if isinstance(value, Typ):
@@ -86,7 +201,7 @@ def environment() -> jinja2.Environment:
         comment_end_string="##}",
     )
     env.filters.update(num=num, unit=unit, string=string, text=text, paragraphs=paragraphs,
-                       markup=Typ)
+                       markup=Typ, formula=formula)
     return env
 
 
@@ -161,10 +276,17 @@ class Compiler:
         self._typst = typst
         self._compiler = typst.Compiler(root=str(self.root))
 
-    def pdf(self, source: str) -> bytes:
-        """Compile Typst *source* (paths in it relative to the root) to PDF bytes."""
+    def pdf(self, source: str, *, accessible: bool = True) -> bytes:
+        """Compile Typst *source* (paths in it relative to the root) to PDF bytes: PDF/UA-1 when
+        *accessible*, else a tagged PDF.
+
+        PDF/UA-1 (ISO 14289-1): Typst refuses to export a document that misses one of its
+        requirements (a heading level skipped, a figure or formula without alt text, no title), so
+        every document that is written is tagged, titled and described. It also refuses text that
+        no font draws, hence *accessible* off for a name whose script has no installed font."""
         try:
-            return self._compiler.compile(input=source.encode("utf-8"), format="pdf")
+            return self._compiler.compile(input=source.encode("utf-8"), format="pdf",
+                                          pdf_standards=["ua-1"] if accessible else [])
         except self._typst.TypstError as exc:  # a template bug, not a data error: show it whole
             raise RuntimeError(f"typst failed: {exc}") from exc
 

@@ -48,16 +48,39 @@ def scene_svg(result: Result, case: str | None = None, *, true_scale: bool = Fal
     return svg(build_scene(result, case, true_scale))
 
 
+def scene_described(result: Result, case: str | None = None, *, true_scale: bool = False) -> tuple[bytes, str]:
+    """`scene_svg` and the scene's text alternative, written from the model as it is drawn: the
+    mechanism, its links with their printed lengths, the crank angle, the points, each load with its
+    magnitude and direction, the scale. Only what the sheet prints: never a solved answer."""
+    from gradekit.figures.assignment import build_scene
+    from gradekit.figures.canvas import svg
+
+    cv = build_scene(result, case, true_scale)
+    return svg(cv), cv.description()
+
+
 def key_figure_svgs(result: Result) -> list[tuple[str, str, bytes]]:
     """`key_figures` as (slug, caption, SVG bytes); drawings written straight from their display
     lists, plotted curves through matplotlib."""
+    return [(slug, caption, data) for slug, caption, data, _alt in key_figures_described(result)]
+
+
+def key_figures_described(result: Result) -> list[tuple[str, str, bytes, str]]:
+    """`key_figure_svgs` with each figure's text alternative: (slug, caption, SVG bytes, alt). A
+    free-body diagram names each force (magnitude, point, direction); a force polygon says the order
+    of its arrows and how it closes; a velocity or acceleration polygon each point's image."""
     from gradekit.figures.canvas import Canvas, svg
-    from gradekit.figures.key import key_drawings
+    from gradekit.figures.key import Plot, key_drawings
 
     out = []
     for slug, caption, make in key_drawings(result):
         drawn = make()
-        out.append((slug, caption, svg(drawn) if isinstance(drawn, Canvas) else to_svg(drawn)))
+        if isinstance(drawn, Canvas):
+            out.append((slug, caption, svg(drawn), drawn.description()))
+        elif isinstance(drawn, Plot):
+            out.append((slug, caption, to_svg(drawn.figure), drawn.alt))
+        else:
+            out.append((slug, caption, to_svg(drawn), caption))
     return out
 
 
@@ -131,4 +154,5 @@ def _close(fig) -> None:
         plt.close(fig)
 
 
-__all__ = ["scene", "key_figures", "to_svg", "to_png", "write_figures"]
+__all__ = ["scene", "scene_described", "key_figures", "key_figures_described", "to_svg", "to_png",
+           "write_figures"]

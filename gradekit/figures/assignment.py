@@ -34,14 +34,17 @@ def given(problem, values: dict[str, float], name: str, default: str) -> str:
     return f"{sym} = {show_value(problem, values, name)}"
 
 
+SIG = 5  # significant figures of a value a figure prints: those of the documents' tables
+
+
 def force_text(problem, newtons: float) -> str:
     unit = problem.units["force"]
-    return f"{fmt(units.convert(abs(newtons), 'N', unit), 4)} {units.pretty(unit)}"
+    return f"{fmt(units.convert(abs(newtons), 'N', unit), SIG)} {units.pretty(unit)}"
 
 
 def torque_text(problem, nm: float) -> str:
     unit = problem.units["torque"]
-    return f"{fmt(units.convert(abs(nm), 'N*m', unit), 4)} {units.pretty(unit)}"
+    return f"{fmt(units.convert(abs(nm), 'N*m', unit), SIG)} {units.pretty(unit)}"
 
 
 def arrow_len(mag: float, biggest: float) -> float:
@@ -115,6 +118,32 @@ def driver_key(result: Result) -> str:
         if a.of == "driver":
             return GREEK.get(a.key, a.key)
     return "T"
+
+
+def heading(vec) -> str:
+    """A direction in words for a text alternative: 'down and to the left, 225° from +x'."""
+    x, y = float(vec[0]), float(vec[1])
+    deg = math.degrees(math.atan2(y, x)) % 360.0
+    tol = 1e-6 * math.hypot(x, y)
+    horiz = "to the right" if x > tol else "to the left" if x < -tol else ""
+    vert = "up" if y > tol else "down" if y < -tol else ""
+    words = " and ".join(w for w in (vert, horiz) if w) or "nowhere"
+    return f"{words}, {round(deg) % 360}° counterclockwise from +x"
+
+
+def sense(value: float) -> str:
+    return "counterclockwise" if value > 0 else "clockwise"
+
+
+def kind_words(kind: str) -> str:
+    """A mechanism kind as a reader hears it: ``slider_crank`` -> 'slider crank mechanism'."""
+    return kind.replace("_", " ") + " mechanism"
+
+
+def _point_list(names: list[str]) -> str:
+    if len(names) <= 1:
+        return "".join(names)
+    return ", ".join(names[:-1]) + " and " + names[-1]
 
 
 # Paper a true-scale drawing may use, in points (A4, the documents' 2 cm margins, less the SVG
@@ -194,6 +223,7 @@ def _build(result: Result, case: str | None, k_paper: float | None) -> Canvas:
     P = draw_linkage(cv, link, T)
     mid = T(centre)
     members = sol.total.members
+    _describe_linkage(cv, result, cr, k_paper)
 
     # loads (given forces and torques)
     loads = [f for m in members.values() for f in m.forces if f.kind == "load"]
@@ -218,6 +248,8 @@ def _build(result: Result, case: str | None, k_paper: float | None) -> Canvas:
             txt = f"{name} = {show_value(pr, values, sp.torque)}" if sp and isinstance(sp.torque, str) \
                 and sp.torque in pr.parameters else f"{name} = {torque_text(pr, tq)}"
             cv.label(txt, arc_anchors(c, 20.0), VERMILION, clear=3.0)
+            cv.describe(f"Given torque {txt} on link {pr.label(body)} at {pr.point(_origin_name(link, body))}, "
+                        f"{sense(tq)}")
     # the unknown driving torque / force: drawn positive (CCW / along the axis), named, no value
     if "torque" in show:
         drv = link.driver
@@ -226,6 +258,9 @@ def _build(result: Result, case: str | None, k_paper: float | None) -> Canvas:
             c = T(link.bodies[drv.body].origin.pos())
             torque_arc(cv, c, 15.0, 1.0, BLUE, "driver")
             cv.label(f"{key} (ccw +)", arc_anchors(c, 15.0), BLUE, clear=3.0)
+            cv.describe(f"The unknown driving torque {key} on link {pr.label(drv.body)} at "
+                        f"{pr.point(_origin_name(link, drv.body))}, drawn counterclockwise as positive, "
+                        f"labelled {key} (ccw +)")
         else:
             j = next(j for j in link.joints if j.name == drv.joint)
             u = np.array([math.cos(float(j.axis.v)), math.sin(float(j.axis.v))])
@@ -233,6 +268,8 @@ def _build(result: Result, case: str | None, k_paper: float | None) -> Canvas:
             tail = c + u * 16.0
             cv.arrow(tail, tail + u * 26.0, BLUE, 1.4, gid="driver")
             cv.label(key, tail + u * 26.0, BLUE, clear=3.0)
+            cv.describe(f"The unknown driving force {key} at {pr.point(link.point_at(j.point.pos()) or j.name)}, "
+                        f"drawn along the slide, {heading(u)}, as positive")
 
     # crank angle and other given angles
     th = float(link.bodies[link.input_body].angle.v)
@@ -247,6 +284,8 @@ def _build(result: Result, case: str | None, k_paper: float | None) -> Canvas:
                else f"θ = {fmt(math.degrees(t))}°")
         am = [o2 + r_ang * np.array([math.cos(t * q), math.sin(t * q)]) for q in (0.5, 0.35, 0.65, 0.2, 0.8)]
         cv.label(txt, am, GREEN, clear=2.0, prefer=np.array([math.cos(t / 2), math.sin(t / 2)]))
+        cv.describe(f"Crank angle {txt}, measured counterclockwise from the dashed +x line at {pr.point('O2')} "
+                    f"to link {pr.label(link.input_body)}")
 
     # speeds and accelerations given on the input link
     if show & {"velocities", "accelerations"} and o2 is not None:
@@ -263,6 +302,9 @@ def _build(result: Result, case: str | None, k_paper: float | None) -> Canvas:
             tip = [o2 + r * np.array([math.cos(a0 + q), math.sin(a0 + q)]) for q in (0.65, 0.3, 1.0)]
             cv.label(given(pr, values, name, sym), tip, PURPLE, clear=3.0,
                      prefer=np.array([math.cos(a0 + 0.65), math.sin(a0 + 0.65)]))
+            word = "angular velocity" if key == "omega" else "angular acceleration"
+            cv.describe(f"Given {word} of link {pr.label(link.input_body)}: {given(pr, values, name, sym)}, "
+                        f"{sense(v) if v else 'sense as drawn'}")
 
     # centres of mass
     if "com" in show:
@@ -288,6 +330,7 @@ def _build(result: Result, case: str | None, k_paper: float | None) -> Canvas:
                 name = com_name(pr, body)
                 if name not in {pr.point(n) for n in P}:  # a slider's mass at C is labelled C already
                     cv.label(name, T(st.g), BLACK, clear=5.0, prefer=T(st.g) - mid)
+                cv.describe(f"Mass centre {name} of link {pr.label(body)}, marked with a quartered circle")
     # dimension labels of given lengths
     if "dimensions" in show:
         dims = KINDS[pr.kind].dimensions
@@ -304,6 +347,7 @@ def _build(result: Result, case: str | None, k_paper: float | None) -> Canvas:
                 n = -n
             anchors = [pa + d * f for f in (0.5, 0.38, 0.62, 0.26, 0.74)]
             cv.label(given(pr, values, value, gname), anchors, BLACK, clear=BAR / 2 + 2.0, prefer=n)
+            cv.describe(f"Length {given(pr, values, value, gname)}, from {pr.point(a)} to {pr.point(b)}")
         for gname in ("offset", "ram_offset"):
             value = pr.geometry.get(gname)
             if isinstance(value, str) and value in pr.parameters:
@@ -311,6 +355,7 @@ def _build(result: Result, case: str | None, k_paper: float | None) -> Canvas:
                 if j is not None:
                     cv.label(given(pr, values, value, "e"), T(j.point.pos()), BLACK, clear=16.0,
                              prefer=np.array([0.0, -1.0]))
+                    cv.describe(f"Offset of the slide line {given(pr, values, value, 'e')}")
         for ld in pr.loads:
             if isinstance(ld.along, str) and ld.along in pr.parameters:
                 f = next((f for f, _, _ in arrows if f.name == ld.name), None)
@@ -318,12 +363,17 @@ def _build(result: Result, case: str | None, k_paper: float | None) -> Canvas:
                     start = T(link.points[ld.at].pos() if ld.at else link.bodies[ld.body].origin.pos())
                     anchors = [start + (T(f.point) - start) * q for q in (0.5, 0.35, 0.65)]
                     cv.label(given(pr, values, ld.along, ld.along), anchors, BLACK, clear=BAR / 2 + 2.0)
+                    cv.describe(f"Load {ld.name} acts at {given(pr, values, ld.along, ld.along)} from "
+                                f"{pr.point(ld.at) if ld.at else 'the pivot of link ' + pr.label(ld.body)}")
         for m in pr.mass:
             if isinstance(m.along, str) and m.along in pr.parameters and "com" in show:
                 st = sol.states[m.body]
                 start = T(link.points[m.at].pos() if m.at else link.bodies[m.body].origin.pos())
                 anchors = [start + (T(st.g) - start) * q for q in (0.5, 0.35, 0.65)]
                 cv.label(given(pr, values, m.along, m.along), anchors, BLACK, clear=BAR / 2 + 2.0)
+                cv.describe(f"The mass centre of link {pr.label(m.body)} lies at "
+                            f"{given(pr, values, m.along, m.along)} from "
+                            f"{pr.point(m.at) if m.at else 'the pivot of link ' + pr.label(m.body)}")
     # load labels last: they may move furthest
     for f, tail, head in arrows:
         sp = specs.get(f.name)
@@ -334,6 +384,9 @@ def _build(result: Result, case: str | None, k_paper: float | None) -> Canvas:
                 txt += f" at {show_value(pr, values, sp.angle)}"
         cv.label(txt, [tail + (head - tail) * q for q in (0.0, 0.5, 0.25, 0.75)], VERMILION, clear=3.0,
                  prefer=tail - head)
+        at = pr.point(link.point_at(f.point)) if link.point_at(f.point) else load_point_name(pr, sp) if sp else ""
+        cv.describe(f"Load {txt} on link {pr.label(f.body)}{' at ' + at if at else ''}, an arrow pointing "
+                    f"{heading(f.vector)}")
 
     if true_scale and k_paper:
         scale_note(cv, pr, k_paper, s, biggest)
@@ -351,6 +404,37 @@ def torque_arc(cv: Canvas, c: np.ndarray, r: float, sign: float, colour: str, gi
     """An arc arrow around *c* (over the top by default): counterclockwise when *sign* > 0."""
     a0, a1 = (start, start + sweep) if sign > 0 else (start + sweep, start)
     cv.arc(c, r, a0, a1, colour, 1.2, gid=gid)
+
+
+def _origin_name(link, body: str) -> str:
+    return link.point_at(link.bodies[body].origin.pos()) or body
+
+
+def _describe_linkage(cv: Canvas, result: Result, cr: CaseResult, k_paper: float | None) -> None:
+    """The opening sentences of a scene's text alternative: the mechanism, its fixed pivots, each
+    link with the points it joins, and each slide; the labels drawn later add their own."""
+    pr = result.problem
+    link = cr.solution.linkage
+    kind = KINDS[pr.kind]
+    case = f", position {cr.name}" if len(result.cases) > 1 and cr.name else ""
+    scale = f"drawn to scale {ratio_text(k_paper)}" if k_paper else "not drawn to scale"
+    cv.describe(f"Kinematic diagram of a {kind_words(pr.kind)}{case}, {scale}; x to the right, y up")
+    fixed = [pr.point(link.point_at(j.point.pos()) or j.name) for j in link.joints
+             if not isinstance(j, Prismatic) and GROUND in (j.a, j.b)]
+    if fixed:
+        cv.describe(f"Fixed pivot{'s' if len(fixed) > 1 else ''} on the frame: {_point_list(fixed)}")
+    for body, pairs in kind.bars.items():
+        if body not in link.bodies:
+            continue
+        ends = list(dict.fromkeys(pr.point(x) for pair in pairs for x in pair if x in link.points))
+        role = "" if pr.label(body) == body else f" ({body})"
+        cv.describe(f"Link {pr.label(body)}{role} joins {_point_list(ends)}")
+    for j in link.joints:
+        if isinstance(j, Prismatic):
+            at = pr.point(link.point_at(j.point.pos()) or j.name)
+            on = "a fixed guide" if j.guide == GROUND else f"link {pr.label(j.guide)}"
+            ang = round(math.degrees(float(j.axis.v))) % 180
+            cv.describe(f"Block {pr.label(j.block)} at {at} slides on {on}, along a line at {ang}° from +x")
 
 
 def scale_note(cv: Canvas, pr, k: float, s: float, biggest: float) -> None:
@@ -373,5 +457,7 @@ def scale_note(cv: Canvas, pr, k: float, s: float, biggest: float) -> None:
         paper_len, pu = (10.0, "mm") if unit in ("mm", "m", "cm") else (0.25, "in")
         per = nice(big / (60.0 if pu == "mm" else 2.5) * paper_len)
         lines.append(f"Suggested force scale: {fmt(paper_len)} {pu} = {fmt(per)} {units.pretty(fu)}")
+    cv.describe(f"Scale bar {fmt(mech_len)} {u}")
     for i, t in enumerate(lines):
         cv.text((x0, y - 14.0 - 11.0 * i), t, ha="left", gid="scale-note" if i == 0 else None)
+        cv.describe(t)

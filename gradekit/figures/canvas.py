@@ -269,6 +269,16 @@ class Canvas:
         self.boxes: list[tuple[float, float, float, float]] = []  # placed labels and solid marks
         self.pending: list[tuple[float, int, tuple, dict]] = []  # labels placed once all lines are in
         self.placed: list[tuple[str, np.ndarray, np.ndarray, float, float]] = []  # text, anchors, box, penalty, gap
+        self.alt: list[str] = []  # the drawing in words, sentence by sentence, written as it is drawn
+
+    def describe(self, sentence: str) -> None:
+        """Add *sentence* to the figure's text alternative (`description`)."""
+        if sentence:
+            self.alt.append(sentence.strip())
+
+    def description(self) -> str:
+        """The figure's text alternative: what was drawn, in the order it was described."""
+        return " ".join(s if s.endswith((".", ":")) else s + "." for s in self.alt)
 
     # -- primitives -------------------------------------------------------------------------
     def line(self, pts, color: str = BLACK, lw: float = 1.0, ls: str = "-", gid: str | None = None,
@@ -589,6 +599,7 @@ class Canvas:
         self.lines += other.lines
         self.boxes += other.boxes
         self.placed += other.placed
+        self.alt += other.alt
 
 
 def row(panels: list[Canvas], gap: float = 28.0) -> Canvas:

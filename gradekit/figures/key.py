@@ -4,6 +4,7 @@ polygons and the input torque over a crank cycle."""
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -11,11 +12,14 @@ from gradekit import units
 from gradekit.figures.assignment import (
     FIT,
     PT_PER_M,
+    SIG,
     arrow_len,
     com_name,
     driver_key,
     force_text,
+    heading,
     nice,
+    sense,
     torque_arc,
     torque_text,
 )
@@ -87,6 +91,9 @@ def fbd(result: Result, cr: CaseResult, body: str, member: Member) -> Canvas:
     cv = Canvas()
     P = draw_linkage(cv, link, T, bodies={body}, ground=False)
     keep = [n for n in link.points if _on_body(link, body, n)]  # ordered: labels placed deterministically
+    points = ", ".join(pr.point(n) for n in keep)
+    cv.describe(f"Free-body diagram of link {pr.label(body)} alone, with its points {points}; "
+                f"{len(member.forces)} force{'s' if len(member.forces) != 1 else ''} act on it")
     mid = np.mean([T(p) for p in pts], axis=0)
     biggest = max((float(np.hypot(*f.vector)) for f in member.forces), default=0.0)
     st = cr.solution.states.get(body)
@@ -134,7 +141,28 @@ def fbd(result: Result, cr: CaseResult, body: str, member: Member) -> Canvas:
     for f, tail, head, colour in arrows:
         txt = f"{force_name(pr, link, f, key)} = {force_text(pr, float(np.hypot(*f.vector)))}"
         cv.label(txt, [tail, (tail + head) / 2], colour, clear=3.0, prefer=tail - head)
+        cv.describe(f"{_FORCE_WORDS.get(f.kind, 'Force')} {txt} at {_at(pr, link, f.point, body, st)}, "
+                    f"pointing {heading(f.vector)}")
+    for name, c in member.couples:
+        nm = key if name == "driver" else name
+        cv.describe(f"{'Driving couple' if name == 'driver' else 'Couple'} {nm} = {torque_text(pr, c)}, {sense(c)}")
+    if member.kind == "three-force" and member.concurrency is not None:
+        cv.describe("The three lines of action meet at one point, K (dashed lines)")
     return cv
+
+
+_FORCE_WORDS = {"pin": "Pin force", "normal": "Normal force of the slide", "load": "Load",
+                "gravity": "Weight", "inertia": "Inertia force", "driver": "Driving force"}
+
+
+def _at(pr, link: Linkage, point, body: str, st) -> str:
+    """Where a force acts, by the sheet's name of the point (or the link's mass centre)."""
+    name = link.point_at(point)
+    if name:
+        return pr.point(name)
+    if st is not None and same_point(np.asarray(point, float), st.g):
+        return f"the mass centre {com_name(pr, body)}"
+    return f"a line of action offset from the mass centre {com_name(pr, body)}"
 
 
 def _crowded(seg, drawn, near: float = 6.0) -> bool:
@@ -189,11 +217,18 @@ def polygon(result: Result, cr: CaseResult, member: Member, title: str) -> Canva
     if flat:
         x0, y0, _, _ = cv.extent()
         cv.text((x0, y0 - 10.0), "collinear forces: drawn side by side", GREY, 7.5, ha="left")
+    names = [force_name(pr, link, f, key) for f in member.forces]
+    steps = "; ".join(f"{nm} = {force_text(pr, float(np.hypot(*f.vector)))} pointing {heading(f.vector)}"
+                      for nm, f in zip(names, member.forces, strict=True))
+    cv.describe(f"{title}: the forces drawn head to tail in the order {', '.join(names)}: {steps}. The head of "
+                f"{names[-1]} returns to the tail of {names[0]}, so the polygon closes: the forces add up to zero"
+                + ("; the forces are collinear and drawn side by side" if flat else ""))
     # force scale bar
     fu = pr.units["force"]
     per_pt = units.convert(1.0 / s, "N", fu)
     bar_f = nice(POLY_SIZE / 3 * per_pt)
     cv.scale_bar(bar_f / per_pt, f"{fmt(bar_f)} {units.pretty(fu)}")
+    cv.describe(f"Force scale bar {fmt(bar_f)} {units.pretty(fu)}")
     _title(cv, title)
     return cv
 
@@ -237,14 +272,21 @@ def motion_polygon(result: Result, cr: CaseResult, which: str) -> Canvas:
     cv.circle(o, 2.0, BLACK, BLACK, 0.5)
     cv.label("o" + (f" ({', '.join(still)})" if still else ""), o, BLACK, clear=3.0, priority=-1)
     mid = np.mean(list(img.values()), axis=0)
+    word = "Velocity" if which == "vel" else "Acceleration"
+    cv.describe(f"{word} polygon: an arrow from the pole o to the image of each moving point"
+                + (f"; at rest, at o: {', '.join(still)}" if still else ""))
     for n, v in img.items():
         if n in still:
             continue
-        val = fmt(units.convert(float(np.hypot(*vec[n])), si, unit), 4)
+        val = fmt(units.convert(float(np.hypot(*vec[n])), si, unit), SIG)
         cv.label(f"{sym}{n} = {val} {units.pretty(unit)}", [v, v * 0.6], colour, clear=3.0, prefer=v - mid)
+        cv.describe(f"{sym}{n} = {val} {units.pretty(unit)}, pointing {heading(vec[n])}")
+    cv.describe("Dashed lines join the images of two points of one link: their relative "
+                + ("velocity" if which == "vel" else "acceleration"))
     per_pt = units.convert(1.0 / s, si, unit)
     bar_v = nice(POLY_SIZE / 3 * per_pt)
     cv.scale_bar(bar_v / per_pt, f"{fmt(bar_v)} {units.pretty(unit)}")
+    cv.describe(f"Scale bar {fmt(bar_v)} {units.pretty(unit)}")
     return cv
 
 
@@ -254,8 +296,21 @@ def _bars(link: Linkage) -> dict[str, list[tuple[str, str]]]:
     return KINDS[link.kind].bars
 
 
+@dataclass(frozen=True)
+class Plot:
+    """A plotted curve (a matplotlib Figure) and its text alternative."""
+
+    figure: object
+    alt: str
+
+
 def torque_cycle(result: Result, n: int = 72):
     """The driving torque (or force) over a full crank cycle, the asked positions marked."""
+    return torque_cycle_plot(result, n).figure
+
+
+def torque_cycle_plot(result: Result, n: int = 72) -> Plot:
+    """`torque_cycle` with its text alternative (the curve's range and the marked positions)."""
     import dataclasses
 
     import numpy as np
@@ -291,17 +346,24 @@ def torque_cycle(result: Result, n: int = 72):
     ax.set_xlim(0.0, full_turn)
     for i, (x, y, name) in enumerate(marks):
         up = (i % 2 == 0) if y < hi - pad else False
-        ax.annotate(f"{name}: {fmt(y, 4)}", (x, y), xytext=(0, 8 if up else -12), textcoords="offset points",
-                    ha="center", va="center", fontsize=7.5, color=VERMILION, family=FONT_FAMILY)
+        # parse_math off: names from a problem file are text, never mathtext (a "$x^$" would not parse)
+        ax.annotate(f"{name}: {fmt(y, SIG)}", (x, y), xytext=(0, 8 if up else -12), textcoords="offset points",
+                    ha="center", va="center", fontsize=7.5, color=VERMILION, family=FONT_FAMILY, parse_math=False)
     u = units.pretty(tp.unit)
-    ax.set_xlabel(f"crank angle {tp.symbol or theta} ({u})", fontsize=8, family=FONT_FAMILY)
-    ax.set_ylabel(f"{key} ({units.pretty(out_unit)})", fontsize=8, family=FONT_FAMILY)
+    xlabel = f"crank angle {tp.symbol or theta} ({u})"
+    ylabel = f"{key} ({units.pretty(out_unit)})"
+    title = f"Driving {'force' if drv_force else 'torque'} {key} over one crank turn"
+    ax.set_xlabel(xlabel, fontsize=8, family=FONT_FAMILY, parse_math=False)
+    ax.set_ylabel(ylabel, fontsize=8, family=FONT_FAMILY, parse_math=False)
     ax.tick_params(labelsize=7.5)
     if units.pretty(tp.unit) == "°":
         ax.set_xticks([0, 60, 120, 180, 240, 300, 360])
-    ax.set_title(f"Driving {'force' if drv_force else 'torque'} {key} over one crank turn", fontsize=9,
-                 family=FONT_FAMILY)
-    return fig
+    ax.set_title(title, fontsize=9, family=FONT_FAMILY, parse_math=False)
+    ou = units.pretty(out_unit)
+    alt = (f"{title}: a line plot of {ylabel} against {xlabel} from 0 to {fmt(full_turn)} {u}; the curve runs "
+           f"from {fmt(min(finite), SIG)} {ou} to {fmt(max(finite), SIG)} {ou}. Marked positions: "
+           + "; ".join(f"{name} at {fmt(x)} {u}: {fmt(y, SIG)} {ou}" for x, y, name in marks) + ".")
+    return Plot(fig, alt)
 
 
 def key_figure_specs(result: Result) -> list[tuple[str, str, object]]:
@@ -313,12 +375,15 @@ def key_figure_specs(result: Result) -> list[tuple[str, str, object]]:
 
 
 def _as_figure(drawn):
+    if isinstance(drawn, Plot):
+        return drawn.figure
     return render(drawn) if isinstance(drawn, Canvas) else drawn
 
 
 def key_drawings(result: Result) -> list[tuple[str, str, object]]:
     """(slug, caption, make) of every key figure; *make()* returns a `Canvas` (a display list in
-    points, for `canvas.svg`) or, for a plotted curve, a matplotlib Figure."""
+    points, for `canvas.svg`) or, for a plotted curve, a `Plot` (a matplotlib Figure and its text
+    alternative)."""
     import re
 
     out = []
@@ -371,7 +436,7 @@ def _specs(result: Result) -> list[tuple[str, str, object]]:
     if many and isinstance(pr.inputs.get("theta"), str) and pr.inputs["theta"] in pr.parameters:
         names = ", ".join(str(c.name) for c in result.cases)
         out.append(("torque-cycle", f"Driving torque over one crank turn; the asked positions {names} marked",
-                    lambda: torque_cycle(result)))
+                    lambda: torque_cycle_plot(result)))
     return out
 
 
