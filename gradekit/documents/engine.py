@@ -27,7 +27,7 @@ from gradekit.assignment import (
     student_variant,
 )
 from gradekit.csvsafe import StagedFolder, atomic_write, os_errors, write_csv
-from gradekit.documents import typeset
+from gradekit.documents import html, typeset
 from gradekit.documents.context import Picture, Solved, build_context
 from gradekit.errors import GradekitError
 from gradekit.keys import KeyEntry
@@ -279,6 +279,13 @@ def _previous_keys(asg: Assignment, path: Path, previous: dict) -> dict[str, lis
             "(an older gradekit); generate the whole class again to add a student",
             path=str(path),
         )
+    unkeyed = [other for other in previous["students"] if other not in found]
+    if unkeyed:
+        raise GradekitError(
+            f"expected a frozen key for every student of the manifest, got none for {', '.join(unkeyed[:3])}"
+            f"{', …' if len(unkeyed) > 3 else ''} (keys.json and manifest.json of different runs)",
+            path=str(path),
+        )
     return {other: found[other] for other in found}
 
 
@@ -463,6 +470,7 @@ def _one(s: Student, safe: str) -> _Done:
     body = typeset.render("assignment.typ.j2", ctx)
     meta = _metadata(f"{asg.course} {asg.title}: {s.display} ({s.student_id})", asg.course)
     atomic_write(folder / "assignment.pdf", comp.pdf(meta + body, accessible=accessible))
+    atomic_write(folder / "sheet.html", html.sheet(ctx))
     rows = []
     key_rows = []
     for sv in solved:
@@ -680,7 +688,7 @@ def _concatenate(target: Path, parts: list[Path], title: str, author: str) -> No
                         _fix_destinations(item, copies[0])
                         inner.append(item)
                         item = item.get(Name.Next)
-                _link(mark, inner)
+                _hang(mark, inner)
                 bookmarks.append(mark)
             if Name.StructTreeRoot in src.Root:
                 next_key = _merge_structure(out.copy_foreign(src.Root.StructTreeRoot), copies, tree, number,
@@ -689,7 +697,7 @@ def _concatenate(target: Path, parts: list[Path], title: str, author: str) -> No
     root.Count = total
     if bookmarks:
         outlines = out.make_indirect(Dictionary(Type=Name.Outlines))
-        outlines.Count = _link(outlines, bookmarks)
+        outlines.Count = _hang(outlines, bookmarks)
         out.Root.Outlines = outlines
     if elements:
         tree.K = Array(elements)
@@ -719,7 +727,7 @@ def _part_title(src, path: Path) -> str:
     return str(title) if title is not None else path.stem
 
 
-def _link(parent, items: list) -> int:
+def _hang(parent, items: list) -> int:
     """Hang outline *items* under *parent* as its children (First, Last, Prev, Next, Parent); returns
     how many are visible below *parent* (its /Count when open)."""
     import pikepdf
