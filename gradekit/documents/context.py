@@ -9,7 +9,18 @@ from dataclasses import dataclass
 from gradekit import units
 from gradekit.assignment import Assignment, Item, keys_for
 from gradekit.documents import steps
-from gradekit.documents.typeset import Typ, cell, formula, num, paragraphs, string, table, text, unit
+from gradekit.documents.typeset import (
+    Typ,
+    cell,
+    formula,
+    num,
+    paragraph_texts,
+    paragraphs,
+    string,
+    table,
+    text,
+    unit,
+)
 from gradekit.mechanics.model import GROUND, Prismatic
 from gradekit.pipeline import CaseResult, Result
 from gradekit.report import display_unit
@@ -64,9 +75,11 @@ def build_context(asg: Assignment, student: Student, solved: list[Solved], *, ke
             "method": res.problem.method,
             "analysis": res.problem.analysis,
             "statement": paragraphs(_statement(res, scenes, key=key)),
+            "statement_paragraphs": paragraph_texts(_statement(res, scenes, key=key)),
             "scenes": scenes,
             "wide": any(f["wide"] for f in scenes),
             "asked": [{"key": e.key, "description": e.description, "unit": e.unit,
+                       "unit_shown": units.pretty(e.unit),
                        "sign": e.sign_convention, "points": num(e.points, 4)} for e in entries],
         }
         if not key:
@@ -87,6 +100,9 @@ def build_context(asg: Assignment, student: Student, solved: list[Solved], *, ke
         "due": asg.due,
         "instructions": paragraphs(asg.instructions) if asg.instructions.strip() else Typ(""),
         "submission": paragraphs(asg.submission) if asg.submission.strip() else Typ(""),
+        # the same texts as plain paragraphs, for the sheet's HTML version
+        "instructions_paragraphs": paragraph_texts(asg.instructions),
+        "submission_paragraphs": paragraph_texts(asg.submission),
         "student": {"id": student.student_id, "name": student.display, "section": student.section},
         "total_points": num(total, 4),
         "problems": problems,
@@ -121,7 +137,8 @@ def _scenes(res: Result, pictures: tuple[Picture, ...], before: int) -> list[dic
         if f.true_scale:
             k = printed_scale(res, cases[i] if i < len(cases) else None)
             scale = f"Drawn to scale {ratio_text(k)}: print at 100 % (no fit to page)." if k else f.scale_text
-        out.append({"path": f.path, "caption": f.caption, "alt": f.alt, "true_scale": f.true_scale, "scale_text": scale,
+        out.append({"path": f.path, "caption": f.caption, "alt": f.alt, "svg": f.svg,
+                    "true_scale": f.true_scale, "scale_text": scale,
                     "scale": ratio_text(k) if f.true_scale and k else "", "wide": wide,
                     "number": before + i + 1})
     return out

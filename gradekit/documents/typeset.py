@@ -43,10 +43,14 @@ def text(value: str) -> Typ:
     return Typ("#" + string(str(value)))
 
 
+def paragraph_texts(value: str) -> list[str]:
+    """Multi-line *value* as plain paragraphs: blank lines separate paragraphs, newlines are spaces."""
+    return [p for p in (" ".join(p.split()) for p in re.split(r"\n\s*\n", str(value).strip())) if p]
+
+
 def paragraphs(value: str) -> Typ:
-    """Multi-line *value* as markup paragraphs: blank lines separate paragraphs, newlines are spaces."""
-    paras = [" ".join(p.split()) for p in re.split(r"\n\s*\n", str(value).strip())]
-    return Typ("\n\n".join(text(p) for p in paras if p))
+    """Multi-line *value* as markup paragraphs (`paragraph_texts`)."""
+    return Typ("\n\n".join(text(p) for p in paragraph_texts(value)))
 
 
 def num(value: float, sig: int = 5) -> Typ:
