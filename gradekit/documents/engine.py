@@ -385,7 +385,8 @@ def _unlisted_outputs(data: dict) -> list[str]:
     students its manifest names (a file of any other name is the user's)."""
     found = ["key.csv", frozen.FILE, "manifest.json", "assignments.pdf", "keys.pdf"]
     for safe in safe_names(data["students"]).values():
-        found += [f"students/{safe}/assignment.pdf", f"students/{safe}/answers.csv", f"keys/{safe}.pdf"]
+        found += [f"students/{safe}/{name}" for name in ("assignment.pdf", "answers.csv", "sheet.html")]
+        found.append(f"keys/{safe}.pdf")
     return sorted(found)
 
 
