@@ -195,6 +195,7 @@ def test_unknown_parameter_names_are_an_error_listing_the_parameters() -> None:
     assert len(torque) >= 6 and len(set(numpy.round(torque, 9))) == len(torque)  # the angle moves the torque
 
 
+@pytest.mark.slow  # generates the README's example class (several seconds)
 def test_the_readme_python_example_runs(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     readme = (ROOT / "README.md").read_text(encoding="utf-8")
     section = readme.split("## Python API", 1)[1].split("\n## ", 1)[0]
@@ -369,6 +370,7 @@ def in_namespace(script: str, **env: str) -> subprocess.CompletedProcess:
                           env={**os.environ, **env})
 
 
+@pytest.mark.slow  # generates in fresh processes (several seconds)
 @needs_mounts
 def test_an_output_folder_on_another_file_system(made, tmp_path: Path) -> None:
     base = copy_of(made[0], tmp_path)
@@ -398,6 +400,7 @@ def test_an_output_folder_on_another_file_system(made, tmp_path: Path) -> None:
     assert not (base / "mnt" / "students").exists()  # unmounted with the namespace
 
 
+@pytest.mark.slow  # generates in fresh processes (several seconds)
 @needs_mounts
 def test_a_full_disk_or_read_only_folder_is_one_line_naming_the_file(made, tmp_path: Path) -> None:
     base = copy_of(made[0], tmp_path)
