@@ -17,9 +17,12 @@ import zipfile
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from gradekit.csvsafe import atomic_write, write_csv
-from gradekit.grading.compare import StudentGrade
+
+if TYPE_CHECKING:  # the reader imports this module for the LMS names, and compare imports the reader
+    from gradekit.grading.compare import StudentGrade
 
 
 @dataclass(frozen=True)
