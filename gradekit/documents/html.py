@@ -29,8 +29,9 @@ def _environment() -> jinja2.Environment:
 
 def inline_svg(svg: bytes, described_by: str) -> Markup:
     """gradekit's own SVG (`figures.canvas.svg`: its text escaped when drawn) for inlining: no XML
-    prologue, ``role="img"`` and named by the element *described_by* (the figure's description)."""
-    body = _PROLOGUE.sub("", svg.decode("utf-8"))
+    prologue, ``role="img"`` and named by the element *described_by* (the figure's description); its
+    element ids prefixed by *described_by*, as two figures of a page draw the same parts."""
+    body = _PROLOGUE.sub("", svg.decode("utf-8")).replace(' id="', f' id="{Markup.escape(described_by)}-')
     attrs = f'<svg role="img" aria-labelledby="{Markup.escape(described_by)}" focusable="false"'
     return Markup(_SVG_OPEN.sub(attrs, body, count=1))
 

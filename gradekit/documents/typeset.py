@@ -43,6 +43,22 @@ def text(value: str) -> Typ:
     return Typ("#" + string(str(value)))
 
 
+_LONG_RUN = re.compile(r"(\S{24})(?=\S)")
+
+
+def breakable(value: str) -> Typ:
+    """*value* as text (`text`) that may break inside a long run without spaces: a zero-width space
+    after every 24 such characters, so that a 3,000-character name wraps inside its field instead
+    of running off the page."""
+    return text(_LONG_RUN.sub("\\1\u200b", str(value)))
+
+
+def brief(value: str, limit: int = 60) -> Typ:
+    """*value* as text, cut to *limit* characters with an ellipsis (a running page header's name)."""
+    value = str(value)
+    return text(value if len(value) <= limit else value[:limit - 1].rstrip() + "…")
+
+
 def paragraph_texts(value: str) -> list[str]:
     """Multi-line *value* as plain paragraphs: blank lines separate paragraphs, newlines are spaces."""
     return [p for p in (" ".join(p.split()) for p in re.split(r"\n\s*\n", str(value).strip())) if p]
@@ -155,7 +171,6 @@ def speak(src: str) -> str:
             out.append(spoken_unit(inner) or inner)
         elif t in wrappers and nxt == "(":
             out.append(wrappers[t])
-            depth_words.append(t)
         elif t == "(":
             bare = not (i and (tokens[i - 1] in wrappers or tokens[i - 1] in ("_", "^")))
             depth_words.append("(" if bare else "")
@@ -205,7 +220,7 @@ def environment() -> jinja2.Environment:
         comment_end_string="##}",
     )
     env.filters.update(num=num, unit=unit, string=string, text=text, paragraphs=paragraphs,
-                       markup=Typ, formula=formula)
+                       markup=Typ, formula=formula, breakable=breakable, brief=brief)
     return env
 
 

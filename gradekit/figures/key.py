@@ -132,20 +132,19 @@ def fbd(result: Result, cr: CaseResult, body: str, member: Member) -> Canvas:
             cv.label("K", k, BLACK, clear=4.0)
     if st is not None and (st.mass or st.inertia) and com_name(pr, body) not in {pr.point(n) for n in keep}:
         cv.label(com_name(pr, body), T(st.g), BLACK, clear=5.0)
+        cv.describe(f"Its mass centre {com_name(pr, body)} is marked with a quartered circle")
     for name, c in member.couples:
         o = T(link.bodies[body].origin.pos())
         colour = ORANGE if name == "driver" else VERMILION
         nm = key if name == "driver" else name
-        cv.label(f"{nm} = {torque_text(pr, c)} {'ccw' if c > 0 else 'cw'}", o + np.array([0, 16.0]),
-                 colour, clear=3.0)
+        txt = f"{nm} = {torque_text(pr, c)} {'ccw' if c > 0 else 'cw'}"
+        cv.label(txt, o + np.array([0, 16.0]), colour, clear=3.0)
+        cv.describe(f"{'Driving couple' if name == 'driver' else 'Couple'} {txt} ({sense(c)})")
     for f, tail, head, colour in arrows:
         txt = f"{force_name(pr, link, f, key)} = {force_text(pr, float(np.hypot(*f.vector)))}"
         cv.label(txt, [tail, (tail + head) / 2], colour, clear=3.0, prefer=tail - head)
         cv.describe(f"{_FORCE_WORDS.get(f.kind, 'Force')} {txt} at {_at(pr, link, f.point, body, st)}, "
                     f"pointing {heading(f.vector)}")
-    for name, c in member.couples:
-        nm = key if name == "driver" else name
-        cv.describe(f"{'Driving couple' if name == 'driver' else 'Couple'} {nm} = {torque_text(pr, c)}, {sense(c)}")
     if member.kind == "three-force" and member.concurrency is not None:
         cv.describe("The three lines of action meet at one point, K (dashed lines)")
     return cv
@@ -217,12 +216,13 @@ def polygon(result: Result, cr: CaseResult, member: Member, title: str) -> Canva
     if flat:
         x0, y0, _, _ = cv.extent()
         cv.text((x0, y0 - 10.0), "collinear forces: drawn side by side", GREY, 7.5, ha="left")
+        cv.describe("A note under it: collinear forces: drawn side by side")
     names = [force_name(pr, link, f, key) for f in member.forces]
     steps = "; ".join(f"{nm} = {force_text(pr, float(np.hypot(*f.vector)))} pointing {heading(f.vector)}"
                       for nm, f in zip(names, member.forces, strict=True))
     cv.describe(f"{title}: the forces drawn head to tail in the order {', '.join(names)}: {steps}. The head of "
                 f"{names[-1]} returns to the tail of {names[0]}, so the polygon closes: the forces add up to zero"
-                + ("; the forces are collinear and drawn side by side" if flat else ""))
+               )
     # force scale bar
     fu = pr.units["force"]
     per_pt = units.convert(1.0 / s, "N", fu)
@@ -270,11 +270,13 @@ def motion_polygon(result: Result, cr: CaseResult, which: str) -> Canvas:
         if n not in still:
             cv.arrow(o, v, colour, 1.3, gid=f"{which}-{n}")
     cv.circle(o, 2.0, BLACK, BLACK, 0.5)
-    cv.label("o" + (f" ({', '.join(still)})" if still else ""), o, BLACK, clear=3.0, priority=-1)
+    pole = "o" + (f" ({', '.join(still)})" if still else "")
+    cv.label(pole, o, BLACK, clear=3.0, priority=-1)
     mid = np.mean(list(img.values()), axis=0)
     word = "Velocity" if which == "vel" else "Acceleration"
-    cv.describe(f"{word} polygon: an arrow from the pole o to the image of each moving point"
-                + (f"; at rest, at o: {', '.join(still)}" if still else ""))
+    cv.describe(f"{word} polygon: an arrow from the pole o to the image of each moving point; the pole is "
+                f"labelled {pole}" + (f", where the points at rest ({', '.join(still)}) have their images" if still
+                                      else ""))
     for n, v in img.items():
         if n in still:
             continue
