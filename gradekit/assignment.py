@@ -325,7 +325,7 @@ def _distinct_mistakes(entries: list[KeyEntry]) -> list[KeyEntry]:
     for (e, m), hit in zip(pairs, same, strict=True):
         if not hit:
             kept[id(e)].append(m)
-    return [replace(e, mistakes=tuple(kept[id(e)])) if len(kept[id(e)]) != len(e.mistakes) else e for e in entries]
+    return [e._replace(mistakes=tuple(kept[id(e)])) if len(kept[id(e)]) != len(e.mistakes) else e for e in entries]
 
 
 STEPS = (0.5, 0.25, 0.1, 0.05, 0.01)  # readable answer points, coarsest first

@@ -7,7 +7,8 @@ grader (which compares submissions with them).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
+from typing import NamedTuple
 
 import numpy as np
 
@@ -126,8 +127,7 @@ class Tolerance:
         return text
 
 
-@dataclass(frozen=True)
-class Mistake:
+class Mistake(NamedTuple):
     """A catalogued mistake re-solved for one answer: its name and the value it leads to."""
 
     name: str
@@ -135,8 +135,7 @@ class Mistake:
     value: float
 
 
-@dataclass(frozen=True)
-class KeyEntry:
+class KeyEntry(NamedTuple):
     """One answer of one student's variant.
 
     ``key`` is unique within an assignment (``<problem-label>.<answer-key>``, e.g. ``p1.T``).
@@ -152,4 +151,4 @@ class KeyEntry:
     points: float = 1.0
     description: str = ""
     sign_convention: str = ""
-    mistakes: tuple[Mistake, ...] = field(default=())
+    mistakes: tuple[Mistake, ...] = ()

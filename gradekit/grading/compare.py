@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -55,8 +56,7 @@ def generic_mistakes(entry: KeyEntry) -> tuple[Mistake, ...]:
     return tuple(found)
 
 
-@dataclass(frozen=True)
-class AnswerResult:
+class AnswerResult(NamedTuple):
     """The verdict on one answer.
 
     ``value`` is the answer in the key's unit (None when missing or unreadable); ``rel_error``

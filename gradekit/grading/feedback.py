@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import html
 import math
-import re
 from collections.abc import Mapping
 from dataclasses import dataclass, replace
 
@@ -108,7 +107,7 @@ def _off(r: AnswerResult, unit: str, reveal: bool, hint: str = "direction") -> s
     if not reveal:
         way = (f"too far {'counterclockwise' if r.error > 0 else 'clockwise'}" if r.angle
                else f"too {'high' if r.error > 0 else 'low'}")
-        band = r.entry.tolerance.band(r.entry.value)
+        band = r.band if r.band is not None else r.entry.tolerance.band(r.entry.value)
         if hint == "band" and band > 0:
             times = r.abs_error / band
             coarse = ("within twice the tolerance" if times <= 2 else "2 to 10 times the tolerance away"
@@ -122,13 +121,14 @@ def _off(r: AnswerResult, unit: str, reveal: bool, hint: str = "direction") -> s
     return f"{'+' if r.error > 0 else '−'}{fmt(r.abs_error)} {unit}"
 
 
-_MD_ESCAPE = re.compile(r"([`*_<>\[\]])")
+# Each character that Markdown would read as markup, as it shows written: a backslash escape, and a line
+# break as a space (a table row is one line). One `str.translate`, a table cell being the hot spot of a class.
+_MD_TEXT = str.maketrans({"\\": "\\\\", "|": "\\|", "\n": " ", "\r": " ", **{c: "\\" + c for c in "`*_<>[]"}})
 
 
 def md_cell(text: str) -> str:
     """*text* as inline Markdown that shows as written (a table cell, a heading, a list item)."""
-    text = text.replace("\\", "\\\\").replace("|", "\\|").replace("\n", " ").replace("\r", " ")
-    return _MD_ESCAPE.sub(r"\\\1", text)
+    return text.translate(_MD_TEXT)
 
 
 def markdown_row(row: FeedbackRow) -> str:

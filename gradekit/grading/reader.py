@@ -10,8 +10,9 @@ import re
 import stat
 import unicodedata
 from collections.abc import Iterable
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from pathlib import Path
+from typing import NamedTuple
 
 from gradekit import units
 from gradekit.csvsafe import decode_bytes, sniff_delimiter, unguard
@@ -36,8 +37,7 @@ class Issue:
         return GradekitError(self.message, path=self.path, line=self.line, field=self.field).message
 
 
-@dataclass(frozen=True)
-class Answer:
+class Answer(NamedTuple):
     """One answer as read: the raw text, and the number and unit it was parsed into.
 
     ``number`` is in ``unit`` as written (``unit`` empty when none was given: the key's unit is
@@ -652,7 +652,7 @@ class _Layout:
                 line, row = rows[pick]
                 for i, key in wide.items():
                     raw = row[i] if i < len(row) else ""
-                    draft.answers[key] = replace(self._cell(key, raw, "", line), field=header[i])
+                    draft.answers[key] = self._cell(key, raw, "", line)._replace(field=header[i])
             draft.issues.extend(repeated)
             return self._finish(drafts)
         class_wide = len(rows) > 1
@@ -674,7 +674,7 @@ class _Layout:
                 continue
             for i, key in wide.items():
                 raw = row[i] if i < len(row) else ""
-                draft.answers[key] = replace(self._cell(key, raw, "", line), field=header[i])
+                draft.answers[key] = self._cell(key, raw, "", line)._replace(field=header[i])
             draft.issues.extend(repeated)
         return self._finish(drafts, class_wide=class_wide)
 
