@@ -248,7 +248,7 @@ def _grade(assignment, roster, submissions, out, manifest, reveal, bank, recompu
     titles = {it.label: f"{it.label}: {it.problem.title}" for it in asg.items}
     return grade_batch(
         keys, students, Path(submissions), Path(out), assignment_title=asg.title, reveal=reveal, problem_titles=titles,
-        hint=asg.feedback, carry=carry,
+        hint=asg.feedback, carry=carry, partial=asg.partial_credit(),
     )
 
 

@@ -22,7 +22,7 @@ from gradekit.bank.registry import load_bank, load_problems
 from gradekit.bank.schema import _Collector, _tolerance
 from gradekit.bank.yamlfile import load
 from gradekit.errors import ErrorList, GradekitError, ProblemError
-from gradekit.keys import KeyEntry, Tolerance, tolerance_columns, within
+from gradekit.keys import KeyEntry, PartialCredit, Tolerance, tolerance_columns, within
 from gradekit.mistakes import catalogued_mistakes
 from gradekit.sampling import Variant, derive_seed, variant
 
@@ -40,6 +40,8 @@ class Item:
     # carried-forward credit of a later answer consistent with the student's own wrong earlier ones:
     # None when the problem does not say (the assignment's, or --carry-forward's), 0 when off
     carry_credit: float | None = None
+    # partial credit in a wider band: None when the problem does not say (the assignment's), False when off
+    partial: PartialCredit | bool | None = None
 
 
 @dataclass(frozen=True)
@@ -78,9 +80,20 @@ class Assignment:
     # the tolerance) or "band" (and a coarse band in multiples of the tolerance)
     feedback: str = "direction"
     carry_credit: float | None = None  # the problems' default carry-forward credit (see Item)
+    partial: PartialCredit | None = None  # the problems' default partial credit (see Item); None: off
     online: Online = dataclasses.field(default_factory=lambda: Online())  # `gradekit serve`'s rules
     # what `grade` writes (`gradekit.grading.exports.EXPORTS` names); None: the default set
     exports: tuple[str, ...] | None = None
+
+    def partial_credit(self) -> dict[str, PartialCredit]:
+        """Each item's partial credit, for the items that give some (a problem's own setting, else the
+        assignment's)."""
+        out = {}
+        for it in self.items:
+            rule = self.partial if it.partial is None else it.partial
+            if rule:
+                out[it.label] = rule
+        return out
 
     def carry(self, forced: bool = False) -> dict[str, float]:
         """Each item's carry-forward credit (0: not carried). *forced* (``--carry-forward``) turns it
@@ -101,7 +114,8 @@ def load_assignment(path: Path | str, bank: Path | str | None = None) -> Assignm
         data,
         "",
         ("title", "course", "salt", "problems"),
-        ("term", "due", "instructions", "submission", "bank", "redraws", "feedback", "carry_forward", "online",
+        ("term", "due", "instructions", "submission", "bank", "redraws", "feedback", "carry_forward", "partial_credit",
+         "online",
          "exports"),
     )
     listed = data.get("problems") if isinstance(data.get("problems"), list) else []
@@ -116,7 +130,8 @@ def load_assignment(path: Path | str, bank: Path | str | None = None) -> Assignm
         node = []
     for i, it in enumerate(node):
         w = f"problems[{i}]"
-        m = c.mapping(it, w, ("id", "points"), ("label", "tolerance", "tolerances", "points_step", "carry_forward"),
+        m = c.mapping(it, w, ("id", "points"), ("label", "tolerance", "tolerances", "points_step", "carry_forward",
+                                               "partial_credit"),
                       node, i)
         if m is None:
             continue
@@ -138,7 +153,8 @@ def load_assignment(path: Path | str, bank: Path | str | None = None) -> Assignm
             per[k] = _override(c, tm[k], f"{w}.tolerances.{k}", tm)
         step = c.number(m, "points_step", f"{w}.points_step", 0.0, positive=True) if "points_step" in m else None
         carry = _carry(c, m, "carry_forward", f"{w}.carry_forward") if "carry_forward" in m else None
-        items.append(Item(label, prob, pts, tol, per, step or None, carry))
+        partial = _partial(c, m, f"{w}.partial_credit") if "partial_credit" in m else None
+        items.append(Item(label, prob, pts, tol, per, step or None, carry, partial))
     redraws: dict[str, dict[str, int]] = {}
     rd = data.get("redraws", {})
     for sid in (
@@ -158,6 +174,7 @@ def load_assignment(path: Path | str, bank: Path | str | None = None) -> Assignm
     if feedback not in ("direction", "band"):
         c.err(data, "feedback", "feedback", f"expected direction or band, got {feedback!r}")
     carry = _carry(c, data, "carry_forward", "carry_forward") if "carry_forward" in data else None
+    partial = _partial(c, data, "partial_credit") if "partial_credit" in data else None
     online = _online(c, data) if "online" in data else Online()
     exports = _exports(c, data) if "exports" in data else None
     if c.errors:
@@ -176,6 +193,7 @@ def load_assignment(path: Path | str, bank: Path | str | None = None) -> Assignm
         redraws,
         str(feedback),
         carry,
+        partial or None,
         online,
         exports,
     )
@@ -245,6 +263,27 @@ def _carry(c: _Collector, node, key: str, where: str) -> float | None:
     if credit is not None and credit > 1:
         c.err(m, "credit", f"{where}.credit", f"expected a fraction of the points from 0 to 1, got {credit}")
     return credit
+
+
+def _partial(c: _Collector, node, where: str) -> PartialCredit | bool | None:
+    """``partial_credit: {within: 3, credit: 0.5}`` (or ``false``: none for this problem)."""
+    v = node["partial_credit"]
+    if v is False:
+        return False
+    m = c.mapping(v, where, ("within", "credit"), (), node, "partial_credit") if isinstance(v, dict) else None
+    if m is None:
+        if not isinstance(v, dict):
+            c.err(node, "partial_credit", where, f"expected false or a mapping {{within: 3, credit: 0.5}}, got {v!r}")
+        return None
+    within = c.number(m, "within", f"{where}.within", 0.0, positive=True)
+    credit = c.number(m, "credit", f"{where}.credit", 0.0, positive=True)
+    if within is not None and within <= 1:
+        c.err(m, "within", f"{where}.within", f"expected a multiple of the tolerance above 1, got {within}")
+        return None
+    if credit is not None and not 0 < credit < 1:
+        c.err(m, "credit", f"{where}.credit", f"expected a fraction of the points between 0 and 1, got {credit}")
+        return None
+    return PartialCredit(within, credit) if within is not None and credit is not None else None
 
 
 def _override(c: _Collector, node, where: str, parent) -> dict:

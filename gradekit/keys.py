@@ -38,12 +38,14 @@ def wrapped(difference, period):
                         difference)
 
 
-def within(answers, values, rel, abs_, sigfigs=0, period=0.0):
-    """True where each answer lies in the band around its key value: |wrapped(x − v)| ≤ `half_widths`
-    (with a relative allowance of 1e-12 for rounding). NaN and infinities are never within."""
+def within(answers, values, rel, abs_, sigfigs=0, period=0.0, widen=1.0):
+    """True where each answer lies in the band around its key value: |wrapped(x − v)| ≤ *widen* ·
+    `half_widths` (with a relative allowance of 1e-12 for rounding; *widen* > 1 for the wider band of
+    partial credit). NaN and infinities are never within."""
     answers, values = np.asarray(answers, float), np.asarray(values, float)
     with np.errstate(invalid="ignore"):
-        ok = np.abs(wrapped(answers - values, period)) <= half_widths(values, rel, abs_, sigfigs) * (1 + 1e-12)
+        band = np.multiply(widen, half_widths(values, rel, abs_, sigfigs))
+        ok = np.abs(wrapped(answers - values, period)) <= band * (1 + 1e-12)
     return ok & np.isfinite(answers) & np.isfinite(values)
 
 
@@ -56,6 +58,15 @@ def tolerance_columns(tolerances) -> tuple[np.ndarray, np.ndarray, np.ndarray, n
         np.array([t.sigfigs if t.mode == "sigfigs" else 0 for t in tolerances], float),
         np.array([t.period for t in tolerances], float),
     )
+
+
+@dataclass(frozen=True)
+class PartialCredit:
+    """The instructor's partial credit: an answer outside its band but within *within* times it earns
+    *credit* of its points (``partial_credit: {within: 3, credit: 0.5}``); nothing beyond."""
+
+    within: float
+    credit: float
 
 
 @dataclass(frozen=True)

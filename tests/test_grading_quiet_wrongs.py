@@ -160,3 +160,37 @@ def test_each_catalogued_mistake_is_named_for_its_own_value_on_every_problem(tmp
             assert found is not None and found.value == pytest.approx(m.value, rel=1e-12, abs=0), (e.key, m.name)
             checked += 1
     assert checked > 200
+
+
+def test_partial_credit_in_the_wider_band_the_assignment_sets(course, tmp_path):
+    """`partial_credit: {within: 3, credit: 0.5}`: an answer 2 bands off earns half its points and its
+    feedback says which band it fell in; 5 bands off earns nothing; the key itself keeps 100 %."""
+    root, _, keys = course
+    asg = tmp_path / "hw.yaml"
+    asg.write_text((root / "hw-a.yaml").read_text(encoding="utf-8") + "partial_credit: {within: 3, credit: 0.5}\n",
+                   encoding="utf-8")
+    mine = [e for e in keys if e.student_id == "1001" and not e.tolerance.period and e.value]
+    near, far = mine[0], mine[1]
+    rows = []
+    for e in (k for k in keys if k.student_id == "1001"):
+        value = e.value
+        if e is near:
+            value = e.value + 2 * e.tolerance.band(e.value) * (1 if e.value > 0 else -1)
+        elif e is far:
+            value = e.value + 5 * e.tolerance.band(e.value) * (1 if e.value > 0 else -1)
+        rows.append(f"1001,{e.key},{value!r},{e.unit}")
+    subs = tmp_path / "subs"
+    subs.mkdir()
+    (subs / "1001.csv").write_text("\n".join(["student_id,key,value,unit", *rows]) + "\n", encoding="utf-8")
+    result = CliRunner().invoke(main, ["grade", str(asg), "--roster", str(root / "roster.csv"), "--submissions",
+                                       str(subs), "--out", str(tmp_path / "out"), "--manifest",
+                                       str(root / "gen" / "manifest.json")])
+    assert result.exit_code == 0, result.output
+    total = sum(e.points for e in keys if e.student_id == "1001")
+    expected = 100 * (total - near.points / 2 - far.points) / total
+    assert float(_grades(tmp_path / "out")["1001"]) == pytest.approx(expected, abs=0.051)
+    feedback = (tmp_path / "out" / "feedback" / "1001.md").read_text(encoding="utf-8").replace("\\", "")
+    near_row = next(line for line in feedback.splitlines() if line.startswith(f"| {near.key} |"))
+    far_row = next(line for line in feedback.splitlines() if line.startswith(f"| {far.key} |"))
+    assert "partial credit" in near_row and "inside the partial-credit band" in near_row
+    assert "| wrong |" in far_row and "partial" not in far_row

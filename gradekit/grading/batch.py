@@ -25,7 +25,7 @@ from gradekit.grading.exports import (
 )
 from gradekit.grading.integrity import IntegrityFlag, find_copies
 from gradekit.grading.reader import IdIndex, KeyIndex, Submission, read_file, special_kind
-from gradekit.keys import KeyEntry
+from gradekit.keys import KeyEntry, PartialCredit
 from gradekit.roster import Student
 
 MARKER = ".gradekit-output"
@@ -339,6 +339,7 @@ def grade_batch(
     histogram: bool = True,
     hint: str = "direction",
     carry=None,
+    partial: Mapping[str, PartialCredit] | None = None,
 ) -> BatchResult:
     """Grade every submission in a folder and write grades, LMS imports, feedback and a report.
 
@@ -363,6 +364,8 @@ def grade_batch(
         carry: carried-forward credit (`gradekit.grading.carried.CarryForward`), applied to each
             grade before its feedback is written; grades.csv then counts carried answers and the
             report has a section on them.
+        partial: partial credit per problem (`PartialCredit`, by ``KeyEntry.problem``): an answer within
+            that wider band earns its share of the points, and its feedback says so.
 
     Returns:
         The grades, every file's fate, the integrity flags and the files written.
@@ -383,7 +386,7 @@ def grade_batch(
         intake = read_submissions(folder, students, keys, skip=skip, shown=shown)
     _check_out(out, submissions)
     entries = _entries(keys)
-    grades = grade_class(students, entries, intake.chosen)
+    grades = grade_class(students, entries, intake.chosen, partial)
     if carry is not None:
         grades = [carry.apply(g) for g in grades]
     problems = list(dict.fromkeys(e.problem for e in keys))

@@ -97,7 +97,7 @@ class CarryForward:
                 continue
             for i, c in _credited(label, variant.result, [results[i] for i in rows]).items():
                 r = results[rows[i]]
-                results[rows[i]] = r._replace(points=r.entry.points * credit, carried=c)
+                results[rows[i]] = r._replace(points=max(r.points, r.entry.points * credit), carried=c)
                 changed = True
         if not changed:
             return grade

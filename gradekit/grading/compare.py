@@ -11,7 +11,7 @@ import numpy as np
 
 from gradekit.errors import GradekitError
 from gradekit.grading.reader import Answer, Issue, Submission
-from gradekit.keys import KeyEntry, Mistake, half_widths, tolerance_columns, within, wrapped
+from gradekit.keys import KeyEntry, Mistake, PartialCredit, half_widths, tolerance_columns, within, wrapped
 from gradekit.roster import Student
 from gradekit.units import factor
 
@@ -66,7 +66,8 @@ class AnswerResult(NamedTuple):
     and for feedback with ``--reveal``); ``method_diagnosis`` is that mistake when it is one of
     method (`METHOD_MISTAKES`), the only kind feedback without ``--reveal`` names. ``carried`` is the
     `gradekit.carry.Carried` a wrong answer matched when graded with carried-forward credit (its
-    ``points`` are then the carried share).
+    ``points`` are then the carried share). ``partial``: not correct, but within the wider band of the
+    assignment's partial credit (`gradekit.keys.PartialCredit`), its ``points`` that share.
     """
 
     entry: KeyEntry
@@ -82,6 +83,7 @@ class AnswerResult(NamedTuple):
     method_diagnosis: Mistake | None = None
     carried: object | None = None  # gradekit.carry.Carried
     band: float | None = None  # the half-width of the acceptance band around the key, in the key's unit
+    partial: bool = False  # outside the band, within the assignment's wider band of partial credit
 
     @property
     def angle(self) -> bool:
@@ -240,15 +242,22 @@ def _diagnoses(
     return found
 
 
-def _results(cells: _Cells) -> list[AnswerResult]:
-    """Every cell's verdict: one comparison for all of them through the one band rule (`within`), the
-    catalogued mistakes looked for only where the answer is wrong."""
+def _results(cells: _Cells, partial: Mapping[str, PartialCredit]) -> list[AnswerResult]:
+    """Every cell's verdict: one comparison for all of them through the one band rule (`within`), and
+    one for the wider band of partial credit where the assignment gives it; the catalogued mistakes
+    looked for only where the answer is not right."""
     entries = cells.entries
     values = np.array(cells.values, float)
     keys = np.array([e.value for e in entries], float)
     tolerances = _tolerances(entries)
     rel, abs_, sig, period = tolerances
     correct = within(values, keys, rel, abs_, sig, period).tolist()
+    share = [0.0] * len(entries)
+    if partial:
+        rules = [partial.get(e.problem) for e in entries]
+        widen = np.array([r.within if r else 1.0 for r in rules], float)
+        near = within(values, keys, rel, abs_, sig, period, widen).tolist()
+        share = [r.credit if r and n and not ok else 0.0 for r, n, ok in zip(rules, near, correct, strict=True)]
     bands = half_widths(keys, rel, abs_, sig).tolist()
     turn = np.array([0.0 if e.tolerance.period else _turn(e.unit) for e in entries], float)
     error = wrapped(wrapped(values - keys, period), turn)
@@ -269,8 +278,8 @@ def _results(cells: _Cells) -> list[AnswerResult]:
             continue
         d = diagnosed.get(i)
         method = d if d is not None and d.name in METHOD_MISTAKES else None
-        out.append(AnswerResult(e, answer, cells.values[i], False, 0.0, rel_error, abs(err), d, "", err, method,
-                                band=bands[i]))
+        out.append(AnswerResult(e, answer, cells.values[i], False, e.points * share[i], rel_error, abs(err), d, "",
+                                err, method, band=bands[i], partial=share[i] > 0))
     return out
 
 
@@ -291,18 +300,20 @@ def compare(entry: KeyEntry, answer: Answer | None) -> AnswerResult:
     """
     cells = _Cells()
     cells.add(entry, answer)
-    return _results(cells)[0]
+    return _results(cells, {})[0]
 
 
 def grade_class(
-    students: Sequence[Student], entries: Mapping[str, Sequence[KeyEntry]], chosen: Mapping[str, Submission | None]
+    students: Sequence[Student], entries: Mapping[str, Sequence[KeyEntry]], chosen: Mapping[str, Submission | None],
+    partial: Mapping[str, PartialCredit] | None = None,
 ) -> list[StudentGrade]:
     """Grade every student (in order) against their own key entries: every answer of the class is
     converted to its key's unit and compared in one pass (`_results`), then each student's grade is
     put together with the issues of their submission.
 
-    Partial credit per problem is the sum of the points of the correct answers. Answers to keys
-    the student's key lacks, and keys left unanswered, become issues naming the file.
+    A problem's points are the sum of its answers' points: an answer's all when right, its
+    *partial* credit (per problem label, `PartialCredit`) when within that wider band, else none.
+    Answers to keys the student's key lacks, and keys left unanswered, become issues naming the file.
     """
     cells = _Cells()
     spans = []
@@ -313,14 +324,17 @@ def grade_class(
         for entry in entries.get(s.student_id, ()):
             cells.add(entry, answers.get(entry.key))
         spans.append((start, len(cells.entries)))
-    results = _results(cells)
+    results = _results(cells, partial or {})
     return [_grade(s, chosen.get(s.student_id), results[a:b], entries.get(s.student_id, ()))
             for s, (a, b) in zip(students, spans, strict=True)]
 
 
-def grade_student(student: Student, entries: Sequence[KeyEntry], submission: Submission | None) -> StudentGrade:
+def grade_student(
+    student: Student, entries: Sequence[KeyEntry], submission: Submission | None,
+    partial: Mapping[str, PartialCredit] | None = None,
+) -> StudentGrade:
     """Grade one student's submission against their key entries (`grade_class` for one student)."""
-    return grade_class([student], {student.student_id: entries}, {student.student_id: submission})[0]
+    return grade_class([student], {student.student_id: entries}, {student.student_id: submission}, partial)[0]
 
 
 def _grade(student: Student, submission: Submission | None, results: list[AnswerResult],

@@ -32,7 +32,8 @@ UNNAMED_NOTE = (
 HINTS = ("direction", "band")  # what feedback without --reveal says about a wrong answer
 
 COLUMNS = ("Answer", "You wrote", "Read as", "Verdict", "Off by", "Likely mistake", "Points")
-_CSS_CLASS = {"right": "right", "wrong": "wrong", "not graded": "not", "carried forward": "carried"}
+_CSS_CLASS = {"right": "right", "wrong": "wrong", "not graded": "not", "carried forward": "carried",
+              "partial credit": "partial"}
 
 
 @dataclass(frozen=True)
@@ -65,6 +66,8 @@ def feedback_row(r: AnswerResult, reveal: bool, hint: str = "direction") -> Feed
         verdict = "not graded"
     elif r.carried is not None:
         verdict = "carried forward"
+    elif r.partial:
+        verdict = "partial credit"
     else:
         verdict = "wrong"
     off = _off(r, unit, reveal, hint) if not r.correct and r.error is not None else ""
@@ -113,7 +116,7 @@ def _off(r: AnswerResult, unit: str, reveal: bool, hint: str = "direction") -> s
             coarse = ("within twice the tolerance" if times <= 2 else "2 to 10 times the tolerance away"
                       if times <= 10 else "more than 10 times the tolerance away")
             return f"{way}, {coarse}"
-        return f"{way}, outside the tolerance"
+        return f"{way}, outside the tolerance" + (" but inside the partial-credit band" if r.partial else "")
     if r.angle:
         return f"{fmt(amount, 3)}° {'counterclockwise' if r.error > 0 else 'clockwise'} (wrapped at 360°)"
     if r.rel_error is not None:
@@ -144,7 +147,7 @@ def html_row(row: FeedbackRow) -> str:
 _CSS = (
     "body{font-family:sans-serif;max-width:60em;margin:2em auto}"
     "table{border-collapse:collapse}td,th{border:1px solid #bbb;padding:.2em .5em}"
-    ".right{background:#e6f4e6}.wrong{background:#fbe9e9}.not{background:#f3f3f3}.carried{background:#fdf5dc}"
+    ".right{background:#e6f4e6}.wrong{background:#fbe9e9}.not{background:#f3f3f3}.carried,.partial{background:#fdf5dc}"
 )
 
 
