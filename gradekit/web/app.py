@@ -313,4 +313,4 @@ def serve(service: Service, host: str, port: int) -> None:
     import uvicorn
 
     uvicorn.run(make_app(service), host=host, port=port, log_level="warning", access_log=False,
-                proxy_headers=True, forwarded_allow_ips="127.0.0.1")
+                proxy_headers=True, forwarded_allow_ips="127.0.0.1", timeout_keep_alive=30)

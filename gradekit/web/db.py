@@ -15,9 +15,10 @@ a lost response) is stored once; its attempts are committed before the page ackn
 
 from __future__ import annotations
 
+import threading
 import time
 from collections.abc import Callable, Iterator
-from contextlib import contextmanager
+from contextlib import contextmanager, nullcontext
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -31,6 +32,7 @@ from sqlalchemy import (
     Index,
     Integer,
     MetaData,
+    QueuePool,
     String,
     Table,
     Text,
@@ -118,9 +120,11 @@ def url_for(db: str | None, manifest: Path) -> str:
 
 def connect(url: str) -> Engine:
     """An engine for *url*: SQLite in WAL mode, every commit synced, each transaction taking the write
-    lock at its start (BEGIN IMMEDIATE: a reader that later writes cannot deadlock another)."""
+    lock at its start (BEGIN IMMEDIATE: a reader that later writes cannot deadlock another) but those
+    of `reading`."""
     if url.startswith("sqlite"):
-        engine = create_engine(url, connect_args={"timeout": 30, "check_same_thread": False})
+        engine = create_engine(url, connect_args={"timeout": 30, "check_same_thread": False}, poolclass=QueuePool,
+                               pool_size=8, max_overflow=8, pool_timeout=120)
 
         @event.listens_for(engine, "connect")
         def _on_connect(dbapi, _record) -> None:  # noqa: ANN001
@@ -133,7 +137,7 @@ def connect(url: str) -> Engine:
 
         @event.listens_for(engine, "begin")
         def _on_begin(conn) -> None:  # noqa: ANN001
-            conn.exec_driver_sql("BEGIN IMMEDIATE")
+            conn.exec_driver_sql("BEGIN" if conn.get_execution_options().get("reading") else "BEGIN IMMEDIATE")
 
         return engine
     return create_engine(url, pool_size=10, max_overflow=20, pool_pre_ping=True)
@@ -164,14 +168,36 @@ def migrate(engine: Engine) -> int:
     return last
 
 
-@contextmanager
-def student_lock(engine: Engine, student_id: str) -> Iterator[Connection]:
-    """A transaction in which no other one (of any server process) changes *student_id*'s attempts:
-    SQLite's BEGIN IMMEDIATE takes the database's write lock; PostgreSQL an advisory lock on the id."""
-    with engine.begin() as conn:
-        if conn.dialect.name == "postgresql":
-            conn.execute(text("SELECT pg_advisory_xact_lock(hashtext(:sid))"), {"sid": student_id})
-        yield conn
+class Database:
+    """An engine and how its transactions are taken: `reading` ones run side by side (SQLite's WAL lets
+    readers go on while one writes); `writing` ones of one process queue on a lock for SQLite (each
+    would otherwise wait on SQLite's own lock in its busy handler's sleeps, a convoy under load), and
+    on PostgreSQL each takes an advisory lock on the student it writes for."""
+
+    def __init__(self, url: str) -> None:
+        self.engine = connect(url)
+        self.sqlite = self.engine.dialect.name == "sqlite"
+        self._writer = threading.Lock() if self.sqlite else None
+
+    def reading(self):  # noqa: ANN201 (a transaction's context manager)
+        """A transaction that only reads (on SQLite it takes no write lock, and its commit writes nothing)."""
+        return self.engine.execution_options(reading=True).begin()
+
+    @contextmanager
+    def writing(self, student_id: str | None = None) -> Iterator[Connection]:
+        """A transaction that writes; with *student_id*, no other one (of any server process) changes that
+        student's attempts meanwhile (SQLite: the database's write lock; PostgreSQL: an advisory lock)."""
+        with self._writer if self._writer is not None else nullcontext():
+            with self.engine.begin() as conn:
+                if student_id is not None and not self.sqlite:
+                    conn.execute(text("SELECT pg_advisory_xact_lock(hashtext(:sid))"), {"sid": student_id})
+                yield conn
+
+    def migrate(self) -> int:
+        return migrate(self.engine)
+
+    def dispose(self) -> None:
+        self.engine.dispose()
 
 
 def get_setting(conn: Connection, name: str) -> str | None:
@@ -214,6 +240,11 @@ def student_attempts(conn: Connection, student_id: str) -> list[Attempt]:
     """Every attempt of one student, oldest first."""
     rows = conn.execute(select(*_ATTEMPT_COLUMNS).where(attempts.c.student_id == student_id).order_by(attempts.c.id))
     return [Attempt(*row) for row in rows]
+
+
+def last_attempt(conn: Connection, student_id: str) -> int | None:
+    """The id of the student's latest attempt (None: none yet)."""
+    return conn.execute(select(func.max(attempts.c.id)).where(attempts.c.student_id == student_id)).scalar()
 
 
 def all_attempts(conn: Connection) -> list[Attempt]:

@@ -15,8 +15,6 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from sqlalchemy import Engine
-
 from gradekit.csvsafe import write_csv
 from gradekit.errors import GradekitError
 from gradekit.grading.compare import StudentGrade
@@ -102,9 +100,9 @@ def precision(entry) -> str:  # noqa: ANN001 (a KeyEntry)
 class Service:
     """A served course: its grading (`Course`), database and secret."""
 
-    def __init__(self, paths: Paths, engine: Engine, *, create_secret: bool = False) -> None:
+    def __init__(self, paths: Paths, database: db.Database, *, create_secret: bool = False) -> None:
         self.paths = paths
-        self.engine = engine
+        self.database = database
         self.secret = load_secret(Path(paths.manifest), create=create_secret)
         self.course = Course(paths)
         online = self.course.assignment.online
@@ -113,7 +111,7 @@ class Service:
 
     def close(self) -> None:
         self.course.close()
-        self.engine.dispose()
+        self.database.dispose()
 
     # --- time ------------------------------------------------------------------------------------
 
@@ -130,7 +128,7 @@ class Service:
     def sign_in_student(self, student_id: str, code: str, client: str) -> str:
         """``ok``, ``wrong`` or ``limited`` (too many failures: not even checked)."""
         student_id = student_id.strip()[:200]
-        with self.engine.begin() as conn:
+        with self.database.writing() as conn:
             if not db.sign_in_allowed(conn, student_id, client):
                 return "limited"
             ok = student_id in self.course.by_id and code_matches(self.secret, student_id, code)
@@ -138,25 +136,28 @@ class Service:
         return "ok" if ok else "wrong"
 
     def sign_in_instructor(self, password: str, client: str) -> str:
-        with self.engine.begin() as conn:
+        with self.database.writing() as conn:
             if not db.sign_in_allowed(conn, "instructor", client):
                 return "limited"
             stored = db.get_setting(conn, "instructor_password")
         ok = stored is not None and password_matches(stored, password)  # scrypt outside the lock
-        with self.engine.begin() as conn:
+        with self.database.writing() as conn:
             db.record_sign_in(conn, "instructor", client, ok)
         return "ok" if ok else "wrong"
 
     # --- a student's page ------------------------------------------------------------------------
 
     def page(self, student_id: str, now: float | None = None) -> StudentPage:
-        with self.engine.begin() as conn:
+        with self.database.reading() as conn:
             history = db.student_attempts(conn, student_id)
         return self._page(student_id, history, now)
 
-    def _page(self, student_id: str, history: list[db.Attempt], now: float | None = None) -> StudentPage:
+    def _page(self, student_id: str, history: list[db.Attempt], now: float | None = None,
+              grade: StudentGrade | None = None) -> StudentPage:
+        """The page of *history*; *grade*: its current answers' grade, when made already."""
         current = current_answers(history).get(student_id, {})
-        grade = self.course.grade(student_id, current)
+        if grade is None:
+            grade = self.course.grade(student_id, current)
         used = Counter(a.key for a in history if a.status == "graded")
         refused = Counter(a.key for a in history if a.status == "refused")
         number = {a.key: a.number for a in history if a.status == "graded"}
@@ -183,37 +184,20 @@ class Service:
         attempt, graded, or refused after the due date or beyond the attempts; all committed before return.
 
         A form id stored before (the same form sent again) stores nothing and returns the first receipt.
+        The answers are graded outside the transaction that stores them; that transaction (under the
+        student's lock) stores them only if the student's attempts are still those they were planned on,
+        and else they are planned and graded again: the count of attempts is exact with any number of
+        requests and server processes at once.
         """
         now = now or time.time()
-        closed = self.closed(now)
         form_id = form_id[:64]
-        with db.student_lock(self.engine, student_id) as conn:
-            done = db.submission_by_form(conn, form_id)
-            history = db.student_attempts(conn, student_id)
+        while True:
+            with self.database.reading() as conn:
+                done = db.submission_by_form(conn, form_id)
+                history = db.student_attempts(conn, student_id)
             if done is not None:
-                if done[1] != student_id:
-                    raise GradekitError("expected a form of your own, got another's", field="form_id")
-                mine = [a for a in history if a.submission_id == done[0]]
-                at = mine[0].received_at if mine else now
-                outcomes = tuple(Outcome(a.key, a.status, a.reason, a.number) for a in mine)
-                return Receipt(done[0], at, outcomes, replayed=True), self._page(student_id, history, now)
-            current = current_answers(history).get(student_id, {})
-            used = Counter(a.key for a in history if a.status == "graded")
-            planned = []
-            for e in self.course.entries(student_id):
-                if e.key not in typed:
-                    continue
-                value, unit = (x.strip()[:MAX_VALUE] for x in typed[e.key])
-                if not value or current.get(e.key) == (value, unit):
-                    continue  # blank or unchanged: not an attempt
-                if closed:
-                    planned.append((e.key, value, unit, "refused", "after the due date", None))
-                elif used[e.key] >= self.online.attempts:
-                    planned.append((e.key, value, unit, "refused", f"all {self.online.attempts} attempts used", None))
-                else:
-                    used[e.key] += 1
-                    current[e.key] = (value, unit)
-                    planned.append((e.key, value, unit, "graded", "", used[e.key]))
+                return self._replayed(student_id, done, history, now)
+            planned, current = self._plan(student_id, typed, history, now)
             grade = self.course.grade(student_id, current)
             results = {r.entry.key: r for r in grade.results}
             rows = []
@@ -222,10 +206,49 @@ class Service:
                 rows.append({"answer_key": key, "value": value, "unit": unit, "status": status, "reason": reason,
                              "number": number, "correct": None if r is None else bool(r.correct),
                              "points": None if r is None else float(r.points)})
-            sub_id = db.add_submission(conn, form_id, student_id, source, now, rows)
-            history = db.student_attempts(conn, student_id)
+            seen = history[-1].id if history else None
+            with self.database.writing(student_id) as conn:
+                if db.submission_by_form(conn, form_id) is not None or db.last_attempt(conn, student_id) != seen:
+                    continue  # sent twice at once, or another submission of theirs came first: look again
+                sub_id = db.add_submission(conn, form_id, student_id, source, now, rows)
+                history = db.student_attempts(conn, student_id)
+            break
         outcomes = tuple(Outcome(k, s, why, n) for k, _v, _u, s, why, n in planned)
-        return Receipt(sub_id, now, outcomes), self._page(student_id, history, now)
+        return Receipt(sub_id, now, outcomes), self._page(student_id, history, now, grade)
+
+    def _replayed(self, student_id: str, done: tuple[int, str], history: list[db.Attempt],
+                  now: float) -> tuple[Receipt, StudentPage]:
+        """The receipt of a form stored before, and the page as it is now."""
+        if done[1] != student_id:
+            raise GradekitError("expected a form of your own, got another's", field="form_id")
+        mine = [a for a in history if a.submission_id == done[0]]
+        at = mine[0].received_at if mine else now
+        outcomes = tuple(Outcome(a.key, a.status, a.reason, a.number) for a in mine)
+        return Receipt(done[0], at, outcomes, replayed=True), self._page(student_id, history, now)
+
+    def _plan(self, student_id: str, typed: Mapping[str, tuple[str, str]], history: list[db.Attempt],
+              now: float) -> tuple[list[tuple], dict[str, tuple[str, str]]]:
+        """Each typed answer's fate as (key, value, unit, status, reason, attempt number), and the current
+        answers with the graded ones among them."""
+        closed = self.closed(now)
+        current = current_answers(history).get(student_id, {})
+        used = Counter(a.key for a in history if a.status == "graded")
+        planned = []
+        for e in self.course.entries(student_id):
+            if e.key not in typed:
+                continue
+            value, unit = (x.strip()[:MAX_VALUE] for x in typed[e.key])
+            if not value or current.get(e.key) == (value, unit):
+                continue  # blank or unchanged: not an attempt
+            if closed:
+                planned.append((e.key, value, unit, "refused", "after the due date", None))
+            elif used[e.key] >= self.online.attempts:
+                planned.append((e.key, value, unit, "refused", f"all {self.online.attempts} attempts used", None))
+            else:
+                used[e.key] += 1
+                current[e.key] = (value, unit)
+                planned.append((e.key, value, unit, "graded", "", used[e.key]))
+        return planned, current
 
     def read_upload(self, student_id: str, data: bytes, filename: str) -> tuple[dict[str, tuple[str, str]], list[str]]:
         """What an uploaded answers.csv holds for this student, ``{key: (value, unit)}`` as written, and the
@@ -240,7 +263,7 @@ class Service:
     # --- the instructor --------------------------------------------------------------------------
 
     def dashboard(self) -> Dashboard:
-        with self.engine.begin() as conn:
+        with self.database.reading() as conn:
             history = db.all_attempts(conn)
             count = db.count_submissions(conn)
             last = db.get_setting(conn, "last_export")
@@ -284,7 +307,7 @@ class Service:
         out.mkdir(parents=True, exist_ok=True)
         with open(out / ".lock", "w") as lock:
             fcntl.flock(lock, fcntl.LOCK_EX)
-            with self.engine.begin() as conn:
+            with self.database.reading() as conn:
                 history = db.all_attempts(conn)
             result = export(self.course, current_answers(history), out)
             write_csv(out / "attempts.csv",
@@ -300,20 +323,20 @@ class Service:
                           [[s["id"], s["name"], round(s["score"], 6), s["max"]] for s in board.students])
         summary = {"at": utc(time.time()), "graded": result.graded, "flags": [f.describe() for f in result.flags],
                    "folder": str(out)}
-        with self.engine.begin() as conn:
+        with self.database.writing() as conn:
             db.put_setting(conn, "last_export", json.dumps(summary))
         return summary
 
 
 def set_password(db_url: str | None, manifest: Path | None, password: str) -> None:
     """Store the instructor's password as an scrypt hash (the database is created or migrated first)."""
-    engine = db.connect(db.url_for(db_url, Path(manifest or ".")))
+    database = db.Database(db.url_for(db_url, Path(manifest or ".")))
     try:
-        db.migrate(engine)
-        with engine.begin() as conn:
+        database.migrate()
+        with database.writing() as conn:
             db.put_setting(conn, "instructor_password", hash_password(password))
     finally:
-        engine.dispose()
+        database.dispose()
 
 
 def open_service(db_url: str | None, paths: Paths | None, *, manifest: Path | None = None,
@@ -325,9 +348,9 @@ def open_service(db_url: str | None, paths: Paths | None, *, manifest: Path | No
         GradekitError: a database with no course recorded and no *paths* given.
     """
     url = db.url_for(db_url, Path(paths.manifest if paths else manifest or "."))
-    engine = db.connect(url)
-    db.migrate(engine)
-    with engine.begin() as conn:
+    database = db.Database(url)
+    database.migrate()
+    with database.writing() as conn:
         if paths is not None:
             db.put_setting(conn, "course", json.dumps(paths.__dict__))
         else:
@@ -336,4 +359,4 @@ def open_service(db_url: str | None, paths: Paths | None, *, manifest: Path | No
                 raise GradekitError("expected a database gradekit serve has used, got one without a course",
                                     path=db_url or url)
             paths = Paths(**json.loads(stored))
-    return Service(paths, engine, create_secret=create_secret)
+    return Service(paths, database, create_secret=create_secret)
