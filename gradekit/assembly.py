@@ -91,14 +91,15 @@ def build_linkage(problem: Problem, values: dict, unit_speed: bool = False, n: i
     Variants that cannot be assembled are refused in the linkage's ``refused`` (never raised).
     """
     ctx = Context(problem, values, n)
-    angles = KINDS[problem.kind].angles
+    kind = KINDS[problem.kind]
     geo = {
-        k: ctx.si(v, "angle" if k in angles else "length", f"mechanism.geometry.{k}")
+        k: ctx.si(v, "angle" if k in kind.angles else "length", f"mechanism.geometry.{k}")
         for k, v in problem.geometry.items()
-        if k != "ram_branch"
+        if k not in kind.signs
     }
-    if "ram_branch" in problem.geometry:
-        geo["ram_branch"] = 1 if float(problem.geometry["ram_branch"]) >= 0 else -1
+    for k in kind.signs:
+        if k in problem.geometry:
+            geo[k] = 1 if float(problem.geometry[k]) >= 0 else -1
     theta = ctx.si(problem.inputs["theta"], "angle", "mechanism.input.theta")
     omega = ctx.si(problem.inputs.get("omega"), "angular_velocity", "mechanism.input.omega")
     alpha = ctx.si(problem.inputs.get("alpha"), "angular_acceleration", "mechanism.input.alpha")

@@ -47,12 +47,6 @@ from gradekit.mechanics.model import Refusals
 from gradekit.numbers import fmt
 
 STAGES = ("given", "kinematics", "inertia", "forces", "total")
-_STAGE = {
-    **dict.fromkeys(("aG", "vG", "a", "v", "alpha", "omega", "theta", "r", "transmission"), "kinematics"),
-    **dict.fromkeys(("Fi", "Ci", "h"), "inertia"),
-    **dict.fromkeys(("F", "M", "driver", "shaking", "shaking_moment"), "forces"),
-    "param": "given",
-}
 _parse = lru_cache(maxsize=1024)(quantities.parse)  # the same few of: texts for every student
 _ZERO = 1e-9  # a response (unit-free: per newton, couples per newton times the mechanism's scale) below this is none
 _INERTIA = "inertia:"
@@ -316,7 +310,7 @@ class _Case:
         stems = {}
         for a in answers:
             asked = _parse(a.spec.of)
-            if asked is not None and _STAGE[asked.quantity.name] == "forces":
+            if asked is not None and asked.quantity.stage == "forces":
                 stems[_stem(asked)] = asked.quantity.vector
         if not stems:
             return {}
@@ -428,9 +422,9 @@ class BatchPlan:
             d = quantities.derived(a.spec.of)
             if d is None:
                 return Dependency(a.key, "given", reason="a given value: nothing upstream")
-            stage = max((_STAGE[q.quantity.name] for _p, q, _l in d.refs.values()), key=STAGES.index)
+            stage = max((q.quantity.stage for _p, q, _l in d.refs.values()), key=STAGES.index)
             return Dependency(a.key, stage, reason="an expression of other results: not carried")
-        stage = _STAGE[asked.quantity.name]
+        stage = asked.quantity.stage
         if stage == "given":
             return Dependency(a.key, stage, reason="a given value: nothing upstream")
         if stage == "kinematics":

@@ -4,7 +4,8 @@ A row states the quantity's name, what goes in its brackets, its SI unit (of the
 component of a vector), whether it is a vector (``.x``, ``.y``, ``.mag``, ``.angle``), its answer
 kind (which measured tolerance default applies) and how people read it. Validation
 (`gradekit.bank.schema`), the producer (`gradekit.answers.flat_results`), the tolerance defaults
-(`gradekit.tolerances.answer_kind`) and the documentation read this table.
+(`gradekit.tolerances.answer_kind`), carried-forward credit (`gradekit.carry`: a row's stage) and the
+documentation read this table.
 
 Any quantity may carry ``@group`` (one superposition part: a load's name, ``gravity`` or
 ``inertia[k]``) before its component.
@@ -27,34 +28,37 @@ class Quantity:
     kind: str  # force, torque, kinematic, length, angle (vector components of forces: force-component);
     # "" where the answer's unit decides (the driver is a torque or a force; a parameter is anything)
     means: str
+    # where the quantity stands in the route a student takes (carried-forward credit follows it):
+    # given → kinematics → inertia → forces
+    stage: str
 
 
 QUANTITIES: tuple[Quantity, ...] = (
-    Quantity("driver", "", "N*m", False, "", "the driving torque (or force, for a slider driver)"),
-    Quantity("transmission", "", "deg", False, "angle", "the smallest acute transmission angle"),
-    Quantity("F", "i,j", "N", True, "force", "the force of link i on link j at their joint"),
-    Quantity("M", "i,j", "N*m", False, "torque", "the couple of link i on link j at a sliding joint"),
-    Quantity("aG", "k", "m/s**2", True, "kinematic", "the acceleration of link k's centre of mass"),
-    Quantity("vG", "k", "m/s", True, "kinematic", "the velocity of link k's centre of mass"),
-    Quantity("Fi", "k", "N", True, "force", "the inertia force −m·a_G of link k"),
-    Quantity("a", "P", "m/s**2", True, "kinematic", "the acceleration of point P"),
-    Quantity("v", "P", "m/s", True, "kinematic", "the velocity of point P"),
-    Quantity("alpha", "k", "rad/s**2", False, "kinematic", "the angular acceleration of link k (CCW +)"),
-    Quantity("omega", "k", "rad/s", False, "kinematic", "the angular velocity of link k (CCW +)"),
-    Quantity("theta", "k", "deg", False, "angle", "the angle of link k, CCW from +x"),
-    Quantity("Ci", "k", "N*m", False, "torque", "the inertia couple −I·α of link k"),
-    Quantity("h", "k", "m", False, "length", "the offset I·α/(m·a_G) of link k's equivalent inertia force"),
-    Quantity("param", "name", "", False, "", "a parameter's own value (in its unit)"),
-    Quantity("r", "P", "m", True, "length", "the position of point P from the problem's origin"),
+    Quantity("driver", "", "N*m", False, "", "the driving torque (or force, for a slider driver)", "forces"),
+    Quantity("transmission", "", "deg", False, "angle", "the smallest acute transmission angle", "kinematics"),
+    Quantity("F", "i,j", "N", True, "force", "the force of link i on link j at their joint", "forces"),
+    Quantity("M", "i,j", "N*m", False, "torque", "the couple of link i on link j at a sliding joint", "forces"),
+    Quantity("aG", "k", "m/s**2", True, "kinematic", "the acceleration of link k's centre of mass", "kinematics"),
+    Quantity("vG", "k", "m/s", True, "kinematic", "the velocity of link k's centre of mass", "kinematics"),
+    Quantity("Fi", "k", "N", True, "force", "the inertia force −m·a_G of link k", "inertia"),
+    Quantity("a", "P", "m/s**2", True, "kinematic", "the acceleration of point P", "kinematics"),
+    Quantity("v", "P", "m/s", True, "kinematic", "the velocity of point P", "kinematics"),
+    Quantity("alpha", "k", "rad/s**2", False, "kinematic", "the angular acceleration of link k (CCW +)", "kinematics"),
+    Quantity("omega", "k", "rad/s", False, "kinematic", "the angular velocity of link k (CCW +)", "kinematics"),
+    Quantity("theta", "k", "deg", False, "angle", "the angle of link k, CCW from +x", "kinematics"),
+    Quantity("Ci", "k", "N*m", False, "torque", "the inertia couple −I·α of link k", "inertia"),
+    Quantity("h", "k", "m", False, "length", "the offset I·α/(m·a_G) of link k's equivalent inertia force", "inertia"),
+    Quantity("param", "name", "", False, "", "a parameter's own value (in its unit)", "given"),
+    Quantity("r", "P", "m", True, "length", "the position of point P from the problem's origin", "kinematics"),
     Quantity(
         "shaking", "", "N", True, "force",
         "the shaking force: the sum of the forces the mechanism exerts on the frame (ground pins, slides, the "
-        "driver's reaction)",
+        "driver's reaction)", "forces",
     ),
     Quantity(
         "shaking_moment", "", "N*m", False, "torque",
         "the shaking moment about the origin of those forces, with the guides' couples and the driving "
-        "torque's reaction (CCW +)",
+        "torque's reaction (CCW +)", "forces",
     ),
 )
 BY_NAME = {q.name: q for q in QUANTITIES}

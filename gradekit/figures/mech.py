@@ -87,13 +87,14 @@ def draw_linkage(cv: Canvas, link: Linkage, T: ToPt, bodies: set[str] | None = N
                 continue
             slot = body == kind.slotted
             pa, pb = P[a], P[b]
-            if slot:  # the slot runs over O4, C and the block at A, whatever their order
-                u = (P["A"] - P["O4"]) / max(float(np.hypot(*(P["A"] - P["O4"]))), 1e-9)
-                ts = [0.0, float(np.dot(P["C"] - P["O4"], u)), float(np.dot(P["A"] - P["O4"], u))]
+            if slot:  # the slot runs over the pivot, the far end and the block, whatever their order
+                pivot, block, end = kind.slot
+                u = (P[block] - P[pivot]) / max(float(np.hypot(*(P[block] - P[pivot]))), 1e-9)
+                ts = [0.0, float(np.dot(P[end] - P[pivot], u)), float(np.dot(P[block] - P[pivot], u))]
                 ext = SLOT_BLOCK[0] / 2 + 3.0
                 lo_t = min(ts) - (ext if min(ts) == ts[2] else 0.0)
                 hi_t = max(ts) + (ext if max(ts) == ts[2] else 0.0)
-                pa, pb = P["O4"] + u * lo_t, P["O4"] + u * hi_t
+                pa, pb = P[pivot] + u * lo_t, P[pivot] + u * hi_t
             bar(cv, pa, pb, f"link-{body}" if (a, b) == pairs[0] else None, colour, slot)
     # ground line between fixed pivots (frame), thin dash-dot
     fixed = [j.point for j in link.joints if isinstance(j, Revolute) and GROUND in (j.a, j.b)]

@@ -289,6 +289,9 @@ class Kind:
         angles: which geometry parameters are angles (the rest are lengths).
         bars: what a figure draws of each body: segments between named points.
         slotted: the body drawn as a slotted lever ('' for none).
+        slot: (pivot, block, end): the slot's line runs from the pivot through the block's pin, over the
+            body's far end, wherever the block is along it (for the slotted body).
+        signs: geometry parameters that are a choice of side (+1 or -1), neither a length nor an angle.
         dimensions: which segment each geometry length dimensions in a figure.
         loop: the four-bar loop (crank, coupler, rocker, frame) a Grashof constraint reads, if any.
         dead_centre: (pivot, crank pin, slider pin): the crank and rod a dead-centre constraint reads.
@@ -303,6 +306,8 @@ class Kind:
     angles: tuple[str, ...] = ()
     bars: Bars = field(default_factory=dict)
     slotted: str = ""
+    slot: tuple[str, str, str] | tuple[()] = ()
+    signs: tuple[str, ...] = ()
     dimensions: dict[str, tuple[str, str]] = field(default_factory=dict)
     loop: tuple[str, ...] = ()
     dead_centre: tuple[str, str, str] | tuple[()] = ()
@@ -402,6 +407,7 @@ KINDS: dict[str, Kind] = {
         angles=("frame_angle",),
         bars=_SLOTTED_BARS,
         slotted="lever",
+        slot=("O4", "A", "C"),
         dimensions=_dims("crank", "frame", "lever"),
         closure=(_SLOTTED_LOOP,),
         example={"crank": 0.1, "frame": 0.2, "lever": 0.4},
@@ -419,6 +425,7 @@ KINDS: dict[str, Kind] = {
             angles=("frame_angle", "slide_angle"),
             bars={**_SLOTTED_BARS, "link": (("C", "D"),)},
             slotted="lever",
+            slot=("O4", "A", "C"),
             dimensions=_dims("crank", "frame", "lever", "link"),
             closure=(_SLOTTED_LOOP, _ram_loop("lever")),
             example=(
@@ -444,6 +451,7 @@ KINDS: dict[str, Kind] = {
         ("crank", "coupler", "rocker", "link", "ram"),
         ("O2", "A", "B", "O4", "C", "D"),
         angles=("frame_angle", "slide_angle"),
+        signs=("ram_branch",),
         bars={**_FOURBAR_BARS, "rocker": (("O4", "B"), ("O4", "C")), "link": (("C", "D"),)},
         dimensions=_dims("crank", "coupler", "rocker", "frame", "arm", "link"),
         loop=("crank", "coupler", "rocker", "frame"),
@@ -514,10 +522,9 @@ def build_many(
         n = int(np.broadcast(*(np.asarray(v) for v in (*full.values(), motion.theta, motion.omega, motion.alpha))).size)
     bad = Refusals(n)
     with np.errstate(all="ignore"):
-        if kind == "slider_crank":
-            link = slider_crank(full, motion, branch, fmt, bad, driver)
-        else:
-            link = spec.build(full, motion, branch, fmt, bad)
+        # a kind with a choice of driver (the slider crank: crank or slider) is told which one drives
+        chosen = {"driver": driver} if len(spec.drivers) > 1 else {}
+        link = spec.build(full, motion, branch, fmt, bad, **chosen)
         for name, pt in link.points.items():
             finite = np.ones(n, bool)
             for c in (pt.x, pt.y):
