@@ -171,6 +171,13 @@ def test_after_the_due_date_the_page_is_read_only_and_attempts_are_refused(cours
         assert f"{a}: refused (after the due date)" in page.inner_text("#receipt")
         page.goto(server.url + "/student")
         assert a_right not in page.content()  # refused: not the current answer
+        # sign-ins are limited: after 5 failures for an account even its right code is not checked
+        guesser = chromium.new_page()
+        for _ in range(5):
+            _sign_in(guesser, server.url, "1003", "AAAAA-AAAAA")
+            assert "do not match" in guesser.inner_text(".error")
+        _sign_in(guesser, server.url, "1003", codes["1003"])
+        assert "Too many failed sign-ins" in guesser.inner_text(".error")
     shutil.rmtree(course / "exp-closed", ignore_errors=True)
     cli("export", "--db", f"sqlite:///{db}", "--out", "exp-closed", cwd=course, check=False)
     # the refused attempt is stored, and counts for nothing
