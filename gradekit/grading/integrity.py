@@ -244,8 +244,8 @@ def _best_pairs(hits: list[tuple[np.ndarray, np.ndarray]], n_sub: int, n_all: in
 
 
 @dataclass(frozen=True)
-class ClassKeys:
-    """The class's keys as copy detection reads them, made from the key entries alone (`class_keys`).
+class AnswerKeys:
+    """The class's keys as copy detection reads them, made from the key entries alone (`answer_keys`).
 
     ``everyone`` lists the students with keys in key order, ``col`` their column; ``names`` the
     answer keys in order of first appearance; ``per_key[a]`` the class's keys of answer *a* sorted
@@ -261,8 +261,8 @@ class ClassKeys:
     period: np.ndarray
 
 
-def class_keys(keys: Sequence[KeyEntry], correlated: float = 0.7) -> ClassKeys:
-    """The part of copy detection that reads the keys alone (see `ClassKeys`)."""
+def answer_keys(keys: Sequence[KeyEntry], correlated: float = 0.7) -> AnswerKeys:
+    """The part of copy detection that reads the keys alone (see `AnswerKeys`)."""
     sids = list(map(_STUDENT, keys))
     everyone = list(dict.fromkeys(sids))
     col = {sid: i for i, sid in enumerate(everyone)}
@@ -278,15 +278,15 @@ def class_keys(keys: Sequence[KeyEntry], correlated: float = 0.7) -> ClassKeys:
     starts = np.searchsorted(key_ix[by_key], np.arange(len(names) + 1))
     problems = [keys[i].problem for i in by_key[starts[:-1]]]  # each key's first entry
     period = np.array([keys[i].tolerance.period for i in by_key[starts[1:] - 1]], float)  # each key's last entry
-    return _class_keys(everyone, col, names, problems, period, key_ix, cols, values, bands, by_key, starts, correlated)
+    return _gathered(everyone, col, names, problems, period, key_ix, cols, values, bands, by_key, starts, correlated)
 
 
-def _class_keys(
+def _gathered(
     everyone: list[str], col: dict[str, int], names: list[str], problems: list[str], period: np.ndarray,
     key_ix: np.ndarray, cols: np.ndarray, values: np.ndarray, bands: np.ndarray, by_key: np.ndarray,
     starts: np.ndarray, correlated: float,
-) -> ClassKeys:
-    """`ClassKeys` of the entries' answer (*key_ix*, into *names*), student (*cols*, into *everyone*),
+) -> AnswerKeys:
+    """`AnswerKeys` of the entries' answer (*key_ix*, into *names*), student (*cols*, into *everyone*),
     value and band; *by_key* orders the entries by answer (stable), each answer's run from *starts*."""
     trial_of = _clusters(names, problems, everyone, key_ix, cols, values, correlated)
     per_key = {}
@@ -298,7 +298,7 @@ def _class_keys(
         order = np.argsort(v, kind="stable")
         w = w[order]
         per_key[a] = (v[order], w, o[order], np.median(w) if len(w) else 0.0)
-    return ClassKeys(everyone, col, names, trial_of, per_key, period)
+    return AnswerKeys(everyone, col, names, trial_of, per_key, period)
 
 
 _STUDENT, _KEY, _VALUE, _TOLERANCE = (attrgetter(f) for f in ("student_id", "key", "value", "tolerance"))
@@ -341,7 +341,7 @@ def find_copies(
     subs = [g for g in grades if g.submission is not None]
     if not subs or not keys:
         return []
-    ck = class_keys(keys, correlated)
+    ck = answer_keys(keys, correlated)
     everyone, col, names, trial_of, per_key, period = ck.everyone, ck.col, ck.names, ck.trial_of, ck.per_key, ck.period
     extra = [g.student.student_id for g in subs if g.student.student_id not in col]
     if extra:  # students with a submission but no key (still classmates of no one's key)
