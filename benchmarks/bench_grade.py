@@ -132,7 +132,7 @@ def run(quick: bool = False) -> dict:
         f"{small:,} and {large:,} students; marginal rate = ({large:,} − {small:,}) / (t{large} − t{small}). "
         f"Median of {RUNS if not quick else 1} runs of each, interleaved. "
         f"Load average (1 min) before and after: {load[0]:.2f}, {load[1]:.2f} on {os.cpu_count()} cores "
-        f"(the command uses a second process for a large class only while a core is free); creating a file "
+        f"(the command runs in one process); creating a file "
         f"in the folder took {create:,.0f} µs (about 20 µs on a quiet disk).",
         "",
         "| keys | " + " | ".join(f"{r['students']:,} students" for r in rows) + " | marginal submissions/s "
