@@ -93,16 +93,15 @@ def quiz_variants(asg: Assignment, n: int) -> list[list[QuizVariant]]:
 
 
 def _pictures(result, stem: str) -> tuple[Picture, ...]:
-    """The variant's scene per case, as PNG, with a text alternative naming the figure's content."""
+    """The variant's scene per case, as PNG, with the text alternative the sheet gives it
+    (`gradekit.figures.scene_described`: what is drawn, never a solved answer)."""
     from gradekit import figures
 
     cases = [c.name for c in result.cases] if len(result.cases) > 1 else [None]
     out = []
     for case in cases:
         png = figures.to_png(figures.scene(result, case))
-        where = f", position {case}" if case else ""
-        alt = (f"Figure of {result.problem.title}{where}: the mechanism with this variant's dimensions, "
-               "points and loads as given in the statement.")
+        _svg, alt = figures.scene_described(result, case)
         out.append(Picture(f"{stem}{'-' + _slug(case) if case else ''}.png", png, alt))
     return tuple(out)
 
