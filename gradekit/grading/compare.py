@@ -259,27 +259,31 @@ def _results(cells: _Cells, partial: Mapping[str, PartialCredit]) -> list[Answer
         near = within(values, keys, rel, abs_, sig, period, widen).tolist()
         share = [r.credit if r and n and not ok else 0.0 for r, n, ok in zip(rules, near, correct, strict=True)]
     bands = half_widths(keys, rel, abs_, sig).tolist()
-    turn = np.array([0.0 if e.tolerance.period else _turn(e.unit) for e in entries], float)
+    turns = {unit: _turn(unit) for unit in {e.unit for e in entries}}
+    turn = np.array([0.0 if e.tolerance.period else turns[e.unit] for e in entries], float)
     error = wrapped(wrapped(values - keys, period), turn)
+    with np.errstate(divide="ignore", invalid="ignore"):  # |x − v| / |v|: a share only for a value v ≠ 0, no angle
+        relative = np.where((keys != 0) & (period == 0) & (turn == 0), np.abs(error) / np.abs(keys), np.nan).tolist()
     wrong = [i for i, ok in enumerate(correct) if not ok and math.isfinite(cells.values[i])]
     at_wrong = tuple(t[wrong] for t in tolerances)
     diagnosed = dict(zip(wrong, _diagnoses([entries[i] for i in wrong], values[wrong], at_wrong), strict=True))
     out = []
-    for i, e in enumerate(entries):
-        answer = cells.answers[i]
-        if not math.isfinite(cells.values[i]):
+    for i, (e, answer, value, err, rel_error) in enumerate(
+        zip(entries, cells.answers, cells.values, error.tolist(), relative, strict=True)
+    ):
+        if value != value:  # NaN: no value to compare
             out.append(AnswerResult(e, answer, None, False, 0.0, None, None, message=cells.messages[i], band=bands[i]))
             continue
-        err = float(error[i])
-        rel_error = abs(err) / abs(e.value) if e.value and not (period[i] or turn[i]) else None
+        if rel_error != rel_error:
+            rel_error = None
         if correct[i]:
-            out.append(AnswerResult(e, answer, cells.values[i], True, e.points, rel_error, abs(err), None, "", err,
+            out.append(AnswerResult(e, answer, value, True, e.points, rel_error, abs(err), None, "", err,
                                     band=bands[i]))
             continue
         d = diagnosed.get(i)
         method = d if d is not None and d.name in METHOD_MISTAKES else None
-        out.append(AnswerResult(e, answer, cells.values[i], False, e.points * share[i], rel_error, abs(err), d, "",
-                                err, method, band=bands[i], partial=share[i] > 0))
+        out.append(AnswerResult(e, answer, value, False, e.points * share[i], rel_error, abs(err), d, "", err, method,
+                                band=bands[i], partial=share[i] > 0))
     return out
 
 
