@@ -441,6 +441,13 @@ def test_a_manifest_with_a_bad_redraw_is_one_line(made, tmp_path: Path) -> None:
     r = CliRunner().invoke(main, ["solve", "p1", "--student", "1002", "--assignment", str(base / "hw.yaml"),
                                   "--manifest", str(out / "manifest.json")])
     assert r.exit_code == 1 and one_line(r.output) == expected + "got 'x'"
+    (base / "sub").mkdir()
+    (base / "sub" / "1001.csv").write_text(submission(key_values(out)["1001"], "1001"), encoding="utf-8")
+    r = CliRunner().invoke(main, ["grade", str(base / "hw.yaml"), "--roster", str(base / "roster.csv"),
+                                  "--submissions", str(base / "sub"), "--out", str(base / "graded"),
+                                  "--manifest", str(out / "manifest.json")])
+    assert r.exit_code == 1 and one_line(r.output) == expected + "got 'x'"
+    assert not (base / "graded").exists()
 
 
 # --- item 15: the statement sandbox bounds every string it builds ---------------------------------------
