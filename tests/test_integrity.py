@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 from gradekit.grading.compare import grade_student
-from gradekit.grading.integrity import KEY_MATCH, SHARED_WRONG, IntegrityFlag, find_copies, poisson_binomial_tails
+from gradekit.grading.integrity import KEY_MATCH, SHARED_WRONG, find_copies, poisson_binomial_tails
 from gradekit.grading.reader import Answer, Submission
 from gradekit.keys import KeyEntry, Tolerance
 from gradekit.roster import Student
@@ -111,17 +111,32 @@ def test_pair_sharing_wrong_answers_is_flagged(klass) -> None:
 
 
 def test_stricter_threshold_flags_fewer() -> None:
-    # one classmate matched on two answers of a class of 3: chance, never flagged
-    keys = [
+    """A copier who hands in a classmate's key on 4 of 6 answers is flagged at the default alpha; at an
+    alpha below the flag's own corrected chance they are not; two answers matched by chance in a class
+    of three are never flagged."""
+    rng = random.Random(7)
+    ids = [f"s{i}" for i in range(40)]
+    keys = [KeyEntry(s, "p", f"p.a{k}", rng.uniform(10, 100), "N", TOL) for s in ids for k in range(6)]
+    entries = {s: [e for e in keys if e.student_id == s] for s in ids}
+    theirs = [e.value for e in entries["s1"]]
+    mine = [e.value for e in entries["s0"]]
+    copied = theirs[:4] + mine[4:]
+    ans = tuple(Answer(f"p.a{k}", str(v), "", v, "", k + 2) for k, v in enumerate(copied))
+    grades = [grade_student(Student("s0", "s0"), entries["s0"], Submission("s0.csv", "s0", ans))]
+    flagged = find_copies(grades, keys)
+    assert [(f.student_id, f.other_id) for f in flagged] == [("s0", "s1")]
+    assert flagged[0].p_value is not None and flagged[0].p_value < 1e-3
+    assert find_copies(grades, keys, alpha=flagged[0].p_value / 10) == []
+
+    small = [
         KeyEntry(s, "p", f"p.a{k}", v, "N", TOL)
         for s, vs in (("a", (1, 2)), ("b", (5, 6)), ("c", (9, 9)))
         for k, v in enumerate(vs)
     ]
-    entries = {s: [e for e in keys if e.student_id == s] for s in "abc"}
     ans = (Answer("p.a0", "5", "", 5.0, "", 2), Answer("p.a1", "6", "", 6.0, "", 3))
-    grades = [grade_student(Student("a", "a"), entries["a"], Submission("a.csv", "a", ans))]
-    assert find_copies(grades, keys) == []
-    assert isinstance(IntegrityFlag("a", "b", "a.csv", 0, 2, ("p.a0", "p.a1")).describe(), str)
+    own = [e for e in small if e.student_id == "a"]
+    grades = [grade_student(Student("a", "a"), own, Submission("a.csv", "a", ans))]
+    assert find_copies(grades, small) == []
 
 
 def test_poisson_binomial_tails_match_enumeration() -> None:

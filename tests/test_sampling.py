@@ -14,6 +14,15 @@ EX51 = "problem_bank/ch5_ex5_1_slider_crank_static.yaml"
 
 
 def test_seed_is_sha256_of_the_identifiers():
+    """The seed is the first 8 bytes (big-endian) of SHA-256 of course, salt, student and problem id joined
+    by the unit separator, and the re-draw counter after them when it is not 0."""
+    import hashlib
+
+    def sha(*parts: str) -> int:
+        return int.from_bytes(hashlib.sha256("\x1f".join(parts).encode("utf-8")).digest()[:8], "big")
+
+    assert derive_seed("MEG373", "hw5", "1001", "ch5-ex5-1") == sha("MEG373", "hw5", "1001", "ch5-ex5-1")
+    assert derive_seed("MEG373", "hw5", "1001", "ch5-ex5-1", redraw=2) == sha("MEG373", "hw5", "1001", "ch5-ex5-1", "2")
     a = derive_seed("MEG373", "hw5", "1001", "ch5-ex5-1")
     assert a == derive_seed("MEG373", "hw5", "1001", "ch5-ex5-1")
     assert a != derive_seed("MEG373", "hw5", "1002", "ch5-ex5-1")
