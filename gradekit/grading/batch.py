@@ -8,7 +8,7 @@ from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-from gradekit.csvsafe import StagedFolder, write_staged
+from gradekit.csvsafe import StagedFolder, os_errors, write_staged
 from gradekit.errors import GradekitError
 from gradekit.grading.archive import submissions_folder
 from gradekit.grading.compare import StudentGrade, grade_class, grade_student
@@ -270,7 +270,9 @@ def _check_out(out: Path, submissions: Path) -> None:
         raise GradekitError("expected an output folder other than the submissions folder", path=str(out))
     if out.exists() and not out.is_dir():
         raise GradekitError("expected an output folder, got a file", path=str(out))
-    if out.is_dir() and not (out / MARKER).exists() and any(out.iterdir()):
+    if out.is_dir() and not (out / MARKER).exists() and any(
+        not p.name.startswith(StagedFolder.PARTIAL) for p in out.iterdir()  # a killed run's staging is ours
+    ):
         raise GradekitError(
             "expected an empty output folder or one gradekit wrote before, got a folder of other files "
             "(choose another --out)",
@@ -400,7 +402,7 @@ def grade_batch(
         carry_limits=carry.limits() if carry is not None else (),
     )
     report = _first_section(report, _attention(grades, conflicts, intake.files))
-    with StagedFolder(out, MARKER) as stage:
+    with StagedFolder(out, MARKER) as stage, os_errors(out):
         root = stage.root
         feedback = root / "feedback"
         feedback.mkdir()
