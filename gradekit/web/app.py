@@ -170,13 +170,22 @@ class Page:
                            online=online, due=utc(self.service.due) if self.service.due else "",
                            form_id=secrets.token_urlsafe(16), at=utc(receipt.at) if receipt else "")
 
-    async def submit(self, request: Request) -> Response:
+    async def _student_post(self, request: Request):  # noqa: ANN202
+        """(the signed-in student's session, whether its cookie is new, the posted form), or the response
+        to send instead (to the sign-in page, or refused for its CSRF token)."""
         session, fresh, ok = self._student(request)
         if not ok:
-            return self.redirect("/signin")
+            return None, self.redirect("/signin")
         form = await self.form(request, session)
         if form is None:
-            return self.refused(request, session, fresh)
+            return None, self.refused(request, session, fresh)
+        return (session, fresh, form), None
+
+    async def submit(self, request: Request) -> Response:
+        posted, refusal = await self._student_post(request)
+        if refusal is not None:
+            return refusal
+        session, fresh, form = posted
         typed = {}
         for e in self.service.course.entries(session.student_id):
             value = form.get(f"value:{e.key}")
@@ -189,12 +198,10 @@ class Page:
         return self.student_page(request, session, fresh, page, receipt)
 
     async def upload(self, request: Request) -> Response:
-        session, fresh, ok = self._student(request)
-        if not ok:
-            return self.redirect("/signin")
-        form = await self.form(request, session)
-        if form is None:
-            return self.refused(request, session, fresh)
+        posted, refusal = await self._student_post(request)
+        if refusal is not None:
+            return refusal
+        session, fresh, form = posted
         upload = form.get("file")
         if upload is None or isinstance(upload, str):
             answers, messages, name = {}, ["expected a file, got none"], ""

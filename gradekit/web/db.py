@@ -43,6 +43,7 @@ from sqlalchemy import (
     select,
     text,
 )
+from sqlalchemy.exc import OperationalError
 
 from gradekit.errors import GradekitError
 
@@ -140,7 +141,7 @@ def connect(url: str) -> Engine:
             conn.exec_driver_sql("BEGIN" if conn.get_execution_options().get("reading") else "BEGIN IMMEDIATE")
 
         return engine
-    return create_engine(url, pool_size=10, max_overflow=20, pool_pre_ping=True)
+    return create_engine(url, pool_size=10, max_overflow=20, pool_recycle=3600)
 
 
 def migrate(engine: Engine) -> int:
@@ -194,7 +195,17 @@ class Database:
                 yield conn
 
     def migrate(self) -> int:
-        return migrate(self.engine)
+        """`migrate` this database (the first connection: a database that cannot be reached is one line).
+
+        Raises:
+            GradekitError: the database cannot be reached, or is newer than this gradekit.
+        """
+        try:
+            return migrate(self.engine)
+        except OperationalError as exc:
+            reason = str(exc.orig).strip().splitlines()[0] if exc.orig is not None else str(exc)
+            raise GradekitError(f"expected a database to connect to, got {reason}",
+                                path=self.engine.url.render_as_string(hide_password=True)) from None
 
     def dispose(self) -> None:
         self.engine.dispose()
