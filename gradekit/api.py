@@ -220,6 +220,9 @@ def _grade(assignment, roster, submissions, out, manifest, reveal, bank, recompu
         notes = check_manifest(asg, Path(manifest))
         redraws = redraws_from_manifest(Path(manifest))
         frozen = None if recompute_keys else frozen_keys(Path(manifest))
+        if frozen is None and not recompute_keys:
+            say("the manifest holds no frozen keys (written by an older gradekit): keys are derived from the "
+                "current bank with the manifest's re-draws")
         for note in notes:
             say(note)
         if notes and frozen is not None:

@@ -435,12 +435,20 @@ def tolerance_table_hash(asg: Assignment) -> str:
 
 
 def frozen_keys(path: Path) -> Mapping[str, list[KeyEntry]] | None:
-    """The keys frozen by generate beside *path* (a manifest.json), verified; None for an older run."""
+    """The keys frozen by generate beside *path* (a manifest.json), verified; None for an older run (a
+    manifest without ``keys``). A ``keys`` entry without the file's name and hash, or naming a file
+    outside the manifest's folder, is refused."""
     data = _manifest_data(path)
-    info = data.get("keys") or {}
-    if not info:
+    if "keys" not in data:
         return None
-    f = path.parent / info.get("file", frozen.FILE)
+    info = data["keys"]
+    name = info.get("file") if isinstance(info, dict) else None
+    if not isinstance(name, str) or not isinstance(info.get("sha256"), str):
+        raise ProblemError(f"expected keys: {{file, sha256}} naming the frozen keys, got {info!r} (grade with "
+                           "--recompute-keys to grade against the current bank instead)", path=str(path))
+    if Path(name).name != name or name in ("", ".", ".."):
+        raise ProblemError(f"expected keys.file to name a file beside the manifest, got {name!r}", path=str(path))
+    f = path.parent / name
     try:
         data = f.read_bytes()  # hashed and parsed as bytes: a 3,000-student file is 12 MB
     except OSError as exc:

@@ -194,3 +194,26 @@ def test_partial_credit_in_the_wider_band_the_assignment_sets(course, tmp_path):
     far_row = next(line for line in feedback.splitlines() if line.startswith(f"| {far.key} |"))
     assert "partial credit" in near_row and "inside the partial-credit band" in near_row
     assert "| wrong |" in far_row and "partial" not in far_row
+
+
+@pytest.mark.parametrize(
+    "keys, expected",
+    [({}, "expected keys: {file, sha256}"), ({"file": "/etc/passwd", "sha256": "0" * 64}, "a file beside the manifest"),
+     ({"file": "../keys.json", "sha256": "0" * 64}, "a file beside the manifest")],
+)
+def test_a_manifest_whose_keys_entry_is_empty_or_points_elsewhere_is_refused(course, tmp_path, keys, expected):
+    """`"keys": {}` must not grade against recomputed keys without a word, and keys.file must not leave
+    the manifest's folder."""
+    root, asg, _ = course
+    gen = tmp_path / "gen"
+    gen.mkdir()
+    data = json.loads((root / "gen" / "manifest.json").read_text(encoding="utf-8"))
+    data["keys"] = keys
+    (gen / "manifest.json").write_text(json.dumps(data), encoding="utf-8")
+    subs = tmp_path / "subs"
+    subs.mkdir()
+    (subs / "1.csv").write_text("student_id,key,value,unit\n", encoding="utf-8")
+    result = _grade(root, asg, subs, tmp_path / "out", gen / "manifest.json")
+    assert result.exit_code == 1
+    assert expected in result.output and "manifest.json" in result.output
+    assert "Traceback" not in result.output and not (tmp_path / "out").exists()
