@@ -217,3 +217,20 @@ def test_a_manifest_whose_keys_entry_is_empty_or_points_elsewhere_is_refused(cou
     assert result.exit_code == 1
     assert expected in result.output and "manifest.json" in result.output
     assert "Traceback" not in result.output and not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize("title", ["Homework 5: $x^$", "the $$ question", "($5 late fee, $5 early)"])
+def test_a_title_with_dollar_signs_is_text_everywhere(course, tmp_path, title):
+    """A title that mathtext cannot parse used to crash grade in the histogram after all the work."""
+    root, _, keys = course
+    asg = tmp_path / "hw.yaml"
+    text = (root / "hw-a.yaml").read_text(encoding="utf-8").replace('title: "HW a"', f"title: {json.dumps(title)}")
+    asg.write_text(text, encoding="utf-8")
+    subs = tmp_path / "subs"
+    subs.mkdir()
+    (subs / "1.csv").write_text("\n".join(["student_id,key,value,unit", *_rows(keys, "1")]) + "\n", encoding="utf-8")
+    result = _grade(root, asg, subs, tmp_path / "out")
+    assert result.exit_code == 0, result.output
+    assert (tmp_path / "out" / "histogram.png").stat().st_size > 1000
+    report = (tmp_path / "out" / "report.md").read_text(encoding="utf-8")
+    assert title.replace("$", "") in report.replace("\\", "").replace("$", "")
