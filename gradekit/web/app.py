@@ -204,13 +204,15 @@ class Page:
         session, fresh, form = posted
         upload = form.get("file")
         if upload is None or isinstance(upload, str):
-            answers, messages, name = {}, ["expected a file, got none"], ""
+            answers, read_as, messages, name = {}, {}, ["expected a file, got none"], ""
         else:
             name = os.path.basename(upload.filename or "answers.csv")[:100]
             data = await upload.read(MAX_UPLOAD + 1)
-            answers, messages = await run_in_threadpool(self.service.read_upload, session.student_id, data, name)
+            answers, read_as, messages = await run_in_threadpool(self.service.read_upload, session.student_id, data,
+                                                                 name)
         entries = self.service.course.entries(session.student_id)
-        rows = [(e.key, e.description, *answers[e.key]) for e in entries if e.key in answers]
+        rows = [(e.key, e.description, *answers[e.key], read_as.get(e.key, "blank: your current answer stays"))
+                for e in entries if e.key in answers]
         return self.render(request, "upload.html", session, fresh, rows=rows, messages=messages, filename=name,
                            form_id=secrets.token_urlsafe(16), closed=self.service.closed())
 

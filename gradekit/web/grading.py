@@ -26,6 +26,7 @@ from gradekit.grading.compare import StudentGrade, grade_student
 from gradekit.grading.feedback import feedback_pages
 from gradekit.grading.reader import EXPECTED, IdIndex, KeyIndex, Submission, read_file
 from gradekit.keys import KeyEntry
+from gradekit.numbers import fmt
 from gradekit.roster import Student, read_roster, safe_names
 
 log = logging.getLogger(__name__)
@@ -104,6 +105,13 @@ class Course:
         finally:
             os.unlink(path)
         return self._graded(student_id, sub)
+
+    def read_as(self, student_id: str, answers: Mapping[str, tuple[str, str]]) -> dict[str, str]:
+        """How the reader reads each non-blank answer: its value in the key's unit, or why it cannot be read;
+        never whether it is right (that is what an attempt is for)."""
+        grade = self.grade(student_id, answers)
+        return {r.entry.key: f"{fmt(r.value, 6)} {r.entry.unit}" if r.value is not None else r.message
+                for r in grade.results if answers.get(r.entry.key, ("", ""))[0].strip()}
 
     def read_upload(self, student_id: str, data: bytes, filename: str) -> Submission | None:
         """What the reader reads of an uploaded file for this student (None: nothing of theirs in it)."""

@@ -250,15 +250,16 @@ class Service:
                 planned.append((e.key, value, unit, "graded", "", used[e.key]))
         return planned, current
 
-    def read_upload(self, student_id: str, data: bytes, filename: str) -> tuple[dict[str, tuple[str, str]], list[str]]:
-        """What an uploaded answers.csv holds for this student, ``{key: (value, unit)}`` as written, and the
-        reader's messages about it (shown before it counts)."""
+    def read_upload(self, student_id: str, data: bytes,
+                    filename: str) -> tuple[dict[str, tuple[str, str]], dict[str, str], list[str]]:
+        """What an uploaded answers.csv holds for this student, ``{key: (value, unit)}`` as written, how each
+        value is read (`Course.read_as`), and the reader's messages about the file (shown before it counts)."""
         sub = self.course.read_upload(student_id, data, filename)
         if sub is None:
-            return {}, [f"{filename}: expected rows for {student_id}, got none of yours"]
+            return {}, {}, [f"{filename}: expected rows for {student_id}, got none of yours"]
         own = {e.key for e in self.course.entries(student_id)}
         answers = {a.key: (a.raw, a.raw_unit) for a in sub.answers if a.key in own}
-        return answers, [str(i) for i in sub.issues]
+        return answers, self.course.read_as(student_id, answers), [str(i) for i in sub.issues]
 
     # --- the instructor --------------------------------------------------------------------------
 
