@@ -470,7 +470,7 @@ def _one(s: Student, safe: str) -> _Done:
     ctx = build_context(asg, s, solved, key=False) | {"fonts": _STATE["fonts"]}
     body = typeset.render("assignment.typ.j2", ctx)
     meta = _metadata(f"{asg.course} {asg.title}: {s.display} ({s.student_id})", asg.course)
-    atomic_write(folder / "assignment.pdf", comp.pdf(meta + body, accessible=accessible))
+    atomic_write(folder / "assignment.pdf", _compiled(comp, meta + body, accessible, asg, s, "sheet", warnings))
     atomic_write(folder / "sheet.html", html.sheet(ctx))
     rows = []
     key_rows = []
@@ -483,8 +483,47 @@ def _one(s: Student, safe: str) -> _Done:
         kctx = build_context(asg, s, solved, key=True) | {"fonts": _STATE["fonts"]}
         kbody = typeset.render("key.typ.j2", kctx)
         meta = _metadata(f"{asg.course} {asg.title}: worked key, {s.display} ({s.student_id})", asg.course)
-        atomic_write(out / "keys" / f"{safe}.pdf", comp.pdf(meta + kbody, accessible=accessible))
+        atomic_write(out / "keys" / f"{safe}.pdf", _compiled(comp, meta + kbody, accessible, asg, s, "worked key",
+                                                             warnings))
     return _Done(s.student_id, key_rows, warnings)
+
+
+def _compiled(comp: typeset.Compiler, source: str, accessible: bool, asg: Assignment, s: Student, what: str,
+              warnings: list[str]) -> bytes:
+    """The PDF of *source*: PDF/UA-1 when *accessible*. Text of a problem file that no installed font
+    draws makes PDF/UA-1 refuse the document: it is then a tagged PDF, with a warning naming the file
+    and field. Any other failure is one line naming the student and, where Typst quotes it, the
+    problem file and field the text comes from."""
+    try:
+        return comp.pdf(source, accessible=accessible)
+    except typeset.TypstFailure as exc:
+        where = _culprit(asg, exc.quoted)
+        if accessible and exc.missing_glyph:
+            warnings.append(f"{where or 'a problem file'}: no installed font draws {exc.quoted!r}; the {what} of "
+                            f"student {s.student_id} is a tagged PDF, not PDF/UA-1 (install "
+                            f"{typeset.font_hint(exc.quoted)})")
+            return comp.pdf(source, accessible=False)
+        raise GradekitError(f"typst cannot typeset the {what} of student {s.student_id}: {exc.message}",
+                            path=where or None) from None
+
+
+def _culprit(asg: Assignment, quoted: str) -> str:
+    """``file: field`` of the first problem field of *asg* holding *quoted* (empty when none does)."""
+    if not quoted:
+        return ""
+    for item in asg.items:
+        p = item.problem
+        fields = {"title": p.title, "statement": p.statement}
+        fields |= {f"labels.{k}": v for k, v in p.labels.items()}
+        fields |= {f"points.{k}": v for k, v in p.point_names.items()}
+        for name, par in p.parameters.items():
+            fields |= {f"parameters.{name}.symbol": par.symbol, f"parameters.{name}.description": par.description}
+        for a in p.answers:
+            fields[f"answers.{a.key}.description"] = a.description
+        for name, value in fields.items():
+            if isinstance(value, str) and quoted in value:
+                return f"{p.path}: {name}"
+    return ""
 
 
 def _metadata(title: str, author: str) -> str:

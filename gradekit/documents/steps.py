@@ -486,28 +486,29 @@ def _construction(p, sol, group) -> list[Typ]:
 
     def at(f) -> str:
         name = nm.point_at(f.point)
-        return f" at {nm.pt(name)}" if name else ""
+        return f" at {text(nm.pt(name))}" if name else ""
 
     two = {b for b in order if members[b].kind == "two-force"}
     out = []
     for step, b in enumerate(order, 1):
         mb = members[b]
-        L = p.label(b)
+        L = text(p.label(b))  # names from the problem file: text, never markup
         fs = mb.forces
         span = float(np.max(mb.polygon.max(axis=0) - mb.polygon.min(axis=0))) if len(fs) else 0.0
         bar = ""
         if span > 0:
             per_pt = units.convert(span / POLY_SIZE, "N", fu)
-            bar = f" Force scale: the bar of {n(nice(POLY_SIZE / 3 * per_pt), 4)} {units.pretty(fu)} under its polygon."
+            bar = (f" Force scale: the bar of {n(nice(POLY_SIZE / 3 * per_pt), 4)} {text(units.pretty(fu))} under "
+                   "its polygon.")
         pins = [f for f in fs if f.kind in ("pin", "normal")]
         knowns = [f for f in fs if f.kind not in ("pin", "normal", "driver")]
         if mb.kind == "two-force":
             a, c = fs
             pa, pc = nm.point_at(a.point), nm.point_at(c.point)
             if pa and pc and pa != pc:
-                line = f"{nm.pt(pa)}{nm.pt(pc)}"
+                line = text(f"{nm.pt(pa)}{nm.pt(pc)}")
             elif pa and any(f.kind == "normal" for f in fs):
-                line = f"the normal to the slide through {nm.pt(pa)}"
+                line = f"the normal to the slide through {text(nm.pt(pa))}"
             else:
                 line = "the line joining their points"
             out.append(Typ(f"{step}. Link {L} is a two-force member: {fname(a)} and {fname(c)} are equal, opposite "
@@ -523,7 +524,7 @@ def _construction(p, sol, group) -> list[Typ]:
                 out.append(Typ(
                     f"{step}. Link {L} is a three-force member. {kn} is known in full; the line of action of "
                     f"{', '.join(fname(f) for f in dirs)} is known (along its two-force member). These two lines meet "
-                    f"at K = ({n(k[0] * kk, 4)}, {n(k[1] * kk, 4)}) {units.pretty(ku)}, so "
+                    f"at K = ({n(k[0] * kk, 4)}, {n(k[1] * kk, 4)}) {text(units.pretty(ku))}, so "
                     f"{', '.join(fname(f) + at(f) for f in rest3)} passes through K too. Draw {kn} to scale; through "
                     f"its ends draw lines parallel to the other two: where they cross closes the polygon and gives "
                     f"both magnitudes.{bar}"))

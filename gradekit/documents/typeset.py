@@ -285,6 +285,18 @@ def font_hint(chars: str) -> str:
     return "fonts-noto-core"
 
 
+class TypstFailure(Exception):
+    """Typst refused a document: its message on one line, the text it quotes, and whether that text
+    is a glyph no font draws (which PDF/UA-1 refuses)."""
+
+    def __init__(self, message: str) -> None:
+        self.message = " ".join(message.split())
+        m = re.search(r'the text `"(.*?)"`', self.message) or re.search(r'"([^"]+)"', self.message)
+        self.quoted = m.group(1) if m else ""
+        self.missing_glyph = "could not be displayed" in self.message
+        super().__init__(self.message)
+
+
 class Compiler:
     """One `typst.Compiler` per process, rooted at the build folder (figures live under it)."""
 
@@ -306,8 +318,8 @@ class Compiler:
         try:
             return self._compiler.compile(input=source.encode("utf-8"), format="pdf",
                                           pdf_standards=["ua-1"] if accessible else [])
-        except self._typst.TypstError as exc:  # a template bug, not a data error: show it whole
-            raise RuntimeError(f"typst failed: {exc}") from exc
+        except self._typst.TypstError as exc:
+            raise TypstFailure(str(getattr(exc, "message", "") or exc)) from None
 
 
 def is_finite(x: float) -> bool:

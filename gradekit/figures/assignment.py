@@ -147,8 +147,9 @@ def _point_list(names: list[str]) -> str:
 
 
 # Paper a true-scale drawing may use, in points (A4, the documents' 2 cm margins, less the SVG
-# margin and room for the caption): portrait, or a landscape page of its own.
-PORTRAIT = ((210 - 40) / 25.4 * 72 - 12.0, (297 - 42) / 25.4 * 72 - 70.0)
+# margin and room for the caption): portrait, leaving a third of the page for the problem's heading,
+# statement and answer table so that they print on the figure's page, or a landscape page of its own.
+PORTRAIT = ((210 - 40) / 25.4 * 72 - 12.0, (297 - 42) / 25.4 * 72 - 250.0)
 LANDSCAPE = ((297 - 40) / 25.4 * 72 - 12.0, (210 - 42) / 25.4 * 72 - 70.0)
 PRINTABLE = (1.0, 0.5, 0.2, 0.1, 0.05, 0.02, 0.01)  # 1:1, 1:2, 1:5, 1:10, ...
 _SCALES: dict[tuple, float] = {}
@@ -171,15 +172,24 @@ def _scale_key(result: Result, case: str | None) -> tuple:
     return (result.problem.id, result.problem.path, tuple(sorted(result.values.items())), case)
 
 
-def _fits(w: float, h: float) -> bool:
-    return any(w <= W and h <= H for W, H in (PORTRAIT, LANDSCAPE))
+def _fits(w: float, h: float, page: tuple[float, float]) -> bool:
+    return w <= page[0] and h <= page[1]
 
 
 def _fit_scale(result: Result, case: str | None, k0: float) -> tuple[float, Canvas]:
-    for k in (k0, *(r for r in PRINTABLE if r < k0 - 1e-12)):
-        cv = _build(result, case, k)
+    """The scale to print at and the drawing: the problem's scale on the portrait page, so that the
+    drawing prints with its problem; else one printable scale smaller on the portrait page; only then
+    a landscape page of its own (at the problem's scale, then the next), and so on down the printable
+    scales (`PRINTABLE`)."""
+    scales = (k0, *(r for r in PRINTABLE if r < k0 - 1e-12))
+    tries = [(PORTRAIT, 0), (PORTRAIT, 1), (LANDSCAPE, 0), (LANDSCAPE, 1)]
+    tries += [(page, i) for i in range(2, len(scales)) for page in (PORTRAIT, LANDSCAPE)]
+    drawn: dict[int, Canvas] = {}
+    for page, i in [(page, i) for page, i in tries if i < len(scales)]:
+        k = scales[i]
+        cv = drawn[i] = drawn.get(i) or _build(result, case, k)
         x0, y0, x1, y1 = cv.extent()
-        if _fits(x1 - x0, y1 - y0):
+        if _fits(x1 - x0, y1 - y0, page):
             break
     if len(_SCALES) > 512:
         _SCALES.clear()

@@ -650,8 +650,9 @@ def render(cv: Canvas, margin: float = 6.0, extent: tuple[float, float, float, f
                 poly.set_gid(st["gid"])
             add(poly)
         elif it.kind == "text":
+            # parse_math off: a label from a problem file is text, never mathtext ("$x^$" would not parse)
             t = Text(it.xy[0], it.xy[1], st["s"], color=st["color"], fontsize=st["size"], ha=st["ha"],
-                     va="center", family=FONT, zorder=8, weight=st["weight"], transform=T)
+                     va="center", family=FONT, zorder=8, weight=st["weight"], transform=T, parse_math=False)
             t.set_gid(st["gid"])
             add(t)
     for (color, lw, ls, z, cap), segs in plain.items():

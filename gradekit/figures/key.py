@@ -111,6 +111,13 @@ def fbd(result: Result, cr: CaseResult, body: str, member: Member) -> Canvas:
         options = [push, pull] if float(np.dot(u, mid - p)) > 0 else [pull, push]
         drawn = [(t, h) for _f, t, h, _c in arrows]
         tail, head = options[1] if _crowded(options[0], drawn) and not _crowded(options[1], drawn) else options[0]
+        if _clearance((tail, head), drawn) < 3.0:
+            # on top of an arrow already drawn (a slide's normal force along the weight at one point):
+            # the clearer side, then moved off the other arrow sideways, so that both show
+            tail, head = max(options, key=lambda o: _clearance(o, drawn))
+            if _clearance((tail, head), drawn) < 3.0:
+                side = np.array([-u[1], u[0]]) * 8.0
+                tail, head = tail + side, head + side
         cv.arrow(tail, head, colour, 1.4, gid=f"force-{f.name}")
         arrows.append((f, tail, head, colour))
     for name, c in member.couples:
@@ -167,6 +174,11 @@ def _at(pr, link: Linkage, point, body: str, st) -> str:
 def _crowded(seg, drawn, near: float = 6.0) -> bool:
     """Whether arrow *seg* runs within *near* points of an arrow already drawn."""
     return any(seg_distance(seg[0], seg[1], t, h) < near for t, h in drawn)
+
+
+def _clearance(seg, drawn) -> float:
+    """How far (points) arrow *seg* runs from the nearest arrow already drawn."""
+    return min((seg_distance(seg[0], seg[1], t, h) for t, h in drawn), default=math.inf)
 
 
 def _on_body(link: Linkage, body: str, point: str) -> bool:
@@ -277,18 +289,28 @@ def motion_polygon(result: Result, cr: CaseResult, which: str) -> Canvas:
     cv.describe(f"{word} polygon: an arrow from the pole o to the image of each moving point; the pole is "
                 f"labelled {pole}" + (f", where the points at rest ({', '.join(still)}) have their images" if still
                                       else ""))
+    legend = []
     for n, v in img.items():
         if n in still:
             continue
         val = fmt(units.convert(float(np.hypot(*vec[n])), si, unit), SIG)
-        cv.label(f"{sym}{n} = {val} {units.pretty(unit)}", [v, v * 0.6], colour, clear=3.0, prefer=v - mid)
-        cv.describe(f"{sym}{n} = {val} {units.pretty(unit)}, pointing {heading(vec[n])}")
+        # Only the name at the arrow's head, pushed outward along it: the images of neighbouring points
+        # have their heads close together, where a whole "aC = ..." beside one head reads as the next
+        # one's; the values are listed under the polygon.
+        out = v / max(float(np.hypot(*v)), 1e-12)
+        side = (v - mid) / max(float(np.hypot(*(v - mid))), 1e-12)
+        cv.label(f"{sym}{n}", [v], colour, clear=3.0, prefer=out + 0.3 * side)
+        legend.append(f"{sym}{n} = {val} {units.pretty(unit)}")
+        cv.describe(f"{legend[-1]}, pointing {heading(vec[n])}")
     cv.describe("Dashed lines join the images of two points of one link: their relative "
                 + ("velocity" if which == "vel" else "acceleration"))
     per_pt = units.convert(1.0 / s, si, unit)
     bar_v = nice(POLY_SIZE / 3 * per_pt)
-    cv.scale_bar(bar_v / per_pt, f"{fmt(bar_v)} {units.pretty(unit)}")
+    y = cv.scale_bar(bar_v / per_pt, f"{fmt(bar_v)} {units.pretty(unit)}")
     cv.describe(f"Scale bar {fmt(bar_v)} {units.pretty(unit)}")
+    x0 = cv.extent()[0]
+    for i, line in enumerate(legend):
+        cv.text((x0, y - 14.0 - 11.0 * i), line, colour, ha="left")
     return cv
 
 
