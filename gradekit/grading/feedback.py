@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import html
 import math
+import re
 from collections.abc import Mapping
 from dataclasses import dataclass, replace
 
@@ -76,7 +77,9 @@ def feedback_row(r: AnswerResult, reveal: bool, hint: str = "direction") -> Feed
         diagnosis = f"{r.carried.describe()}; carried forward ({credit_text(share)})"
     else:
         diagnosis = _likely(r, reveal, verdict == "wrong")
-    cells = (entry.key, read, parsed, verdict, off, diagnosis, f"{fmt(r.points)}/{fmt(entry.points)}")
+    worth = fmt(entry.points)  # an answer's points, and what a right one earned
+    earned = worth if r.points == entry.points else fmt(r.points)
+    cells = (entry.key, read, parsed, verdict, off, diagnosis, f"{earned}/{worth}")
     if reveal:
         cells += (f"{fmt(entry.value, 6)} {unit} ({entry.tolerance.describe()})",)
     return FeedbackRow(cells, verdict)
@@ -134,6 +137,12 @@ def md_cell(text: str) -> str:
     return text.translate(_MD_TEXT)
 
 
+# A character `html.escape` writes otherwise: most rows (numbers, units, fixed phrases) have none and are
+# written as they are (Markdown's escapes are one `str.translate` a cell: the keys' "_" and the units' "*" and
+# "[" need them in most rows).
+_HTML_SPECIAL = re.compile(r"[&<>\"']")
+
+
 def markdown_row(row: FeedbackRow) -> str:
     """A feedback row as a Markdown table row."""
     return "| " + " | ".join(map(md_cell, row.cells)) + " |"
@@ -141,7 +150,8 @@ def markdown_row(row: FeedbackRow) -> str:
 
 def html_row(row: FeedbackRow) -> str:
     """A feedback row as an HTML table row, its class the verdict's."""
-    return f'<tr class="{_CSS_CLASS[row.verdict]}"><td>' + "</td><td>".join(map(html.escape, row.cells)) + "</td></tr>"
+    text = "</td><td>".join(row.cells if not _HTML_SPECIAL.search("".join(row.cells)) else map(html.escape, row.cells))
+    return f'<tr class="{_CSS_CLASS[row.verdict]}"><td>{text}</td></tr>'
 
 
 _CSS = (
