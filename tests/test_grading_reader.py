@@ -185,3 +185,11 @@ def test_several_files_for_one_student_latest_wins(tmp_path: Path) -> None:
         ),
         (".DS_Store", "ignored", "hidden or system file"),
     ]
+
+
+def test_full_width_digits_read_as_a_number():
+    """An East Asian keyboard's full-width input (issue 26 item 18): ４０．８５ is 40.85, not 'expected a unit'."""
+    from gradekit.grading import parse_value
+
+    assert parse_value("４０．８５", decimal_comma=False) == (40.85, "")
+    assert parse_value("－１２．５ N", decimal_comma=False) == (-12.5, "N")

@@ -217,7 +217,11 @@ _NUM = re.compile(
 )
 _NONFINITE = re.compile(r"[+-]?(nan|inf|infinity|∞)", re.IGNORECASE)
 _PLAIN_NUMBER = re.compile(r"[+-]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][+-]?[0-9]+)?")  # 1.12, -3e4: no unit
-_SPACES = str.maketrans({"\u00a0": " ", "\u2009": " ", "\u202f": " ", "\u2212": "-", "\u2013": "-"})
+_SPACES = str.maketrans({
+    "\u00a0": " ", "\u2009": " ", "\u202f": " ", "\u2212": "-", "\u2013": "-", "\u3000": " ",
+    # full-width digits and signs (an East Asian keyboard's input mode): 40.85
+    **{chr(0xFF10 + d): str(d) for d in range(10)}, "\uff0e": ".", "\uff0c": ",", "\uff0b": "+", "\uff0d": "-",
+})
 
 
 def parse_value(text: str, *, decimal_comma: bool) -> tuple[float, str]:
