@@ -40,11 +40,13 @@ MAX_VARIANTS = 500
 
 @dataclass(frozen=True)
 class Picture:
-    """A figure of a variant: its file name in the export, PNG bytes and text alternative."""
+    """A figure of a variant: its file name in the export, PNG bytes, text alternative and caption (the
+    position it shows, for a problem of several)."""
 
     name: str
     png: bytes
     alt: str
+    caption: str = ""
 
 
 @dataclass(frozen=True)
@@ -102,7 +104,8 @@ def _pictures(result, stem: str) -> tuple[Picture, ...]:
     for case in cases:
         png = figures.to_png(figures.scene(result, case))
         _svg, alt = figures.scene_described(result, case)
-        out.append(Picture(f"{stem}{'-' + _slug(case) if case else ''}.png", png, alt))
+        out.append(Picture(f"{stem}{'-' + _slug(case) if case else ''}.png", png, alt,
+                           f"Position {case}:" if case else ""))
     return tuple(out)
 
 
@@ -133,7 +136,8 @@ def _statement_html(v: QuizVariant, src: dict[str, str]) -> str:
     """The question's HTML: the statement's paragraphs, the figures, the note on tolerances."""
     paragraphs = [" ".join(p.split()) for p in v.statement.split("\n\n") if p.strip()]
     parts = [f"<p>{html.escape(p)}</p>" for p in paragraphs]
-    parts += [f'<p><img src="{html.escape(src[p.name])}" alt="{html.escape(p.alt)}"></p>' for p in v.pictures]
+    parts += [f'<p>{html.escape(p.caption) + "<br>" if p.caption else ""}'
+              f'<img src="{html.escape(src[p.name])}" alt="{html.escape(p.alt)}"></p>' for p in v.pictures]
     parts.append("<p>Give each answer in the unit shown, with the sign convention stated.</p>")
     return "\n".join(parts)
 
