@@ -43,6 +43,13 @@ def read(tmp_path: Path, name: str, data: bytes):
         ("1120N·mm", False, (1120.0, "N·mm")),
         ("\u22125.5 kN", False, (-5.5, "kN")),
         ("+.5 [rad]", False, (0.5, "rad")),
+        ("238,542.2", False, (238542.2, "")),  # thousands and a decimal mark: unambiguous (issue 29)
+        ("213.830,3", True, (213830.3, "")),
+        ("213.830,3 N", False, (213830.3, "N")),
+        ("1,234,567", False, (1234567.0, "")),
+        ("1.234.567 N", True, (1234567.0, "N")),
+        ("1,120", True, (1.12, "")),  # a decimal comma where the delimiter is not the comma
+        ("1.120", False, (1.12, "")),
     ],
 )
 def test_parse_value(text: str, comma: bool, expected: tuple[float, str]) -> None:
@@ -59,9 +66,16 @@ def test_parse_value(text: str, comma: bool, expected: tuple[float, str]) -> Non
         ("-inf", False, "expected a finite number, got '-inf'"),
         ("1e999", False, "expected a finite number, got '1e999'"),
         ("1.12x10^999", False, "expected a finite number, got '1.12x10^999'"),
-        ("1,120", False, "expected a number with a decimal point, got '1,120'"),
-        ("1.120,5", True, "expected one number without thousands separators, got '1.120,5'"),
-        ("1 120", True, "expected one number without thousands separators, got '1 120'"),
+        ("1,120", False, "expected a number whose comma is unambiguous (write 1.12 for a decimal, 1120 for "
+                         "thousands), got '1,120'"),
+        ("1,12,5", False, "expected one number, with one decimal mark and any thousands in groups of three, got "
+                          "'1,12,5'"),
+        ("1.120.5", False, "expected one number, with one decimal mark and any thousands in groups of three, got "
+                           "'1.120.5'"),
+        ("12,34.5", False, "expected one number, with one decimal mark and any thousands in groups of three, got "
+                           "'12,34.5'"),
+        ("1 120", True, "expected one number, with one decimal mark and any thousands in groups of three, got "
+                        "'1 120'"),
     ],
 )
 def test_parse_value_refuses(text: str, comma: bool, message: str) -> None:

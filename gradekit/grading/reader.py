@@ -212,7 +212,8 @@ class KeyIndex:
 
 
 _NUM = re.compile(
-    r"\s*(?P<num>[+-]?(?:\d+(?:[.,]\d*)?|[.,]\d+)(?:[eE][+-]?\d+)?)"
+    r"\s*(?P<num>[+-]?(?:\d{1,3}(?:,\d{3})+(?:\.\d*)?|\d{1,3}(?:\.\d{3})+(?:,\d*)?|\d+(?:[.,]\d*)?|[.,]\d+)"
+    r"(?:[eE][+-]?\d+)?)"
     r"(?:\s*[x×*·]\s*10\s*(?:\^|\*\*)\s*(?P<exp>[+-]?\d+))?\s*(?P<unit>.*?)\s*"
 )
 _NONFINITE = re.compile(r"[+-]?(nan|inf|infinity|∞)", re.IGNORECASE)
@@ -252,12 +253,7 @@ def parse_value(text: str, *, decimal_comma: bool) -> tuple[float, str]:
         if _NONFINITE.match(cell):
             raise ValueError(f"expected a finite number, got {text.strip()!r}")
         raise ValueError(f"expected a number, got {_clip(text.strip())!r}")
-    num = m["num"]
-    if "," in num:
-        if "." in num or (not decimal_comma and re.search(r",\d{3}(?!\d)", num)):
-            raise ValueError(f"expected a number with a decimal point, got {_clip(text.strip())!r}")
-        num = num.replace(",", ".")
-    value = float(num)
+    value = float(_plain(m["num"], decimal_comma, text))
     if m["exp"]:
         try:
             value *= 10.0 ** int(m["exp"][:6])
@@ -269,10 +265,42 @@ def parse_value(text: str, *, decimal_comma: bool) -> tuple[float, str]:
     if len(unit) > units.MAX_LENGTH:
         raise ValueError(f"expected a unit of at most {units.MAX_LENGTH} characters, got {len(unit):,}")
     if re.match(r"[.,]?\d", unit):  # '1 120', '1.120,5': a thousands separator or two decimal marks
-        raise ValueError(f"expected one number without thousands separators, got {_clip(text.strip())!r}")
+        raise ValueError(f"expected one number, with one decimal mark and any thousands in groups of three, got "
+                         f"{_clip(text.strip())!r}")
     if unit.startswith("[") and unit.endswith("]"):
         unit = unit[1:-1].strip()
     return value, unit
+
+
+_GROUPED = {",": re.compile(r"[+-]?\d{1,3}(?:,\d{3})+"), ".": re.compile(r"[+-]?\d{1,3}(?:\.\d{3})+")}
+
+
+def _plain(num: str, decimal_comma: bool, text: str) -> str:
+    """*num* (digits with commas and points) as Python reads a number, where its marks are unambiguous:
+    both marks (``238,542.2``, ``213.830,3``): the last is the decimal mark and the other separates
+    thousands in threes; one mark used several times (``1,234,567``): thousands; one comma: a decimal
+    comma, unless three digits follow it in a file whose delimiter is the comma (``1,120``: 1.12 or 1120?).
+    """
+    cell = _clip(text.strip())
+    commas, points = num.count(","), num.count(".")
+    if commas and points:
+        mark = "." if num.rfind(".") > num.rfind(",") else ","
+        whole, fraction = num.rsplit(mark, 1)
+        other = "," if mark == "." else "."
+        if not _GROUPED[other].fullmatch(whole):
+            raise ValueError(f"expected one number, with one decimal mark and any thousands in groups of three, "
+                             f"got {cell!r}")
+        return whole.replace(other, "") + "." + fraction
+    if commas > 1 or points > 1:
+        mark = "," if commas else "."
+        if not _GROUPED[mark].fullmatch(num):
+            raise ValueError(f"expected one number, with one decimal mark and any thousands in groups of three, "
+                             f"got {cell!r}")
+        return num.replace(mark, "")
+    if commas and not decimal_comma and re.search(r",\d{3}$", num):
+        raise ValueError(f"expected a number whose comma is unambiguous (write 1.12 for a decimal, 1120 for "
+                         f"thousands), got {cell!r}")
+    return num.replace(",", ".")
 
 
 def _clip(text: str, width: int = 40) -> str:
