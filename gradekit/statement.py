@@ -117,7 +117,15 @@ def _too_big(op: str, left: object, right: object) -> bool:
     return False
 
 
-_ENV = _Sandbox(undefined=jinja2.StrictUndefined, autoescape=False, keep_trailing_newline=False)
+def _printable(value: object) -> object:
+    """Every ``{{ }}`` output: a method or function is refused (``{{ r.split }}`` would print its repr)."""
+    if callable(value):
+        raise TypeError(f"the method {getattr(value, '__name__', '?')!r} printed as it is (call it, or print a value)")
+    return value
+
+
+_ENV = _Sandbox(undefined=jinja2.StrictUndefined, autoescape=False, keep_trailing_newline=False,
+                finalize=_printable)
 _ENV.globals.clear()  # no range, lipsum, dict, cycler, joiner or namespace
 
 

@@ -185,3 +185,100 @@ def test_sheet_html_is_well_formed_with_a_text_alternative_for_each_figure(gener
         assert name in "".join(root.itertext())
         assert not list(root.iter(f"{h}b")) and not list(root.iter(f"{h}i")) and not list(root.iter(f"{h}em"))
         assert "Read <em>all</em> & answer." in "".join(root.itertext())
+
+
+# --- strings from files reach the documents as text (issue 26 items 14 and 18) ----------------------
+
+
+def _text_right_edges(path: Path) -> list[float]:
+    """The right edge (points from the left) of every text run on page 1, by pypdf's text visitor."""
+    import pypdf
+
+    page = pypdf.PdfReader(str(path)).pages[0]
+    edges = []
+
+    def visit(text, cm, tm, font, size):
+        if text.strip():
+            # a run's width is not reported: its start plus its characters at most a font size wide
+            edges.append(tm[4] * cm[0] + cm[4] + len(text.strip()) * (size or 10) * 0.5 * tm[0] * cm[0])
+
+    page.extract_text(visitor_text=visit)
+    return edges
+
+
+def test_a_3000_character_name_wraps_inside_the_page(generated):
+    import pypdf
+
+    path = generated / "students" / "a2" / "assignment.pdf"
+    width = float(pypdf.PdfReader(str(path)).pages[0].mediabox.width)
+    text = pypdf.PdfReader(str(path)).pages[0].extract_text()
+    assert "Student ID" in text and "X" * 40 in text
+    assert max(_text_right_edges(path)) < width - 20  # nothing runs past the right margin
+
+
+HOSTILE = 'Crank #import "@preview/cetz:0.3.0" #sys.version $x^$ *b* <l> @r \\ ]'
+
+
+def _bank_with(tmp_path: Path, title: str, statement_tail: str = "") -> Path:
+    """A copy of the bank whose ch5-ex5-1 has *title* and *statement_tail* appended to its statement."""
+    import shutil
+
+    bank = tmp_path / "bank"
+    shutil.copytree(ROOT / "problem_bank", bank)
+    path = bank / "ch5_ex5_1_slider_crank_static.yaml"
+    data = path.read_text(encoding="utf-8")
+    data = re.sub(r"(?m)^title: .*$", lambda m: "title: " + yaml.safe_dump(title, width=10**6).strip()
+                  .removesuffix("\n...").strip(), data, count=1)
+    if statement_tail:
+        data = data.replace("statement: |", "statement: |\n  " + statement_tail, 1)
+    path.write_text(data, encoding="utf-8")
+    return bank
+
+
+def _one_student(tmp_path: Path, bank: Path, keys: bool = True):
+    asg = tmp_path / "a.yaml"
+    asg.write_text(yaml.safe_dump({"title": "T", "course": "C", "salt": "s", "bank": str(bank),
+                                   "problems": [{"id": "ch5-ex5-1", "points": 10}]}), encoding="utf-8")
+    roster = tmp_path / "r.csv"
+    roster.write_text("student_id,name\nq1,Q\n", encoding="utf-8")
+    return generate(asg, roster, tmp_path / "out", keys=keys, progress=False)
+
+
+def test_markup_in_a_problem_title_prints_as_written(tmp_path):
+    import pypdf
+
+    summary = _one_student(tmp_path, _bank_with(tmp_path, HOSTILE))
+    assert not summary.warnings
+    for path in (summary.assignments[0], summary.keys[0]):
+        text = " ".join(p.extract_text() for p in pypdf.PdfReader(str(path)).pages)
+        assert HOSTILE in " ".join(text.split()), path  # no import, no version, no math: the text itself
+    page = (tmp_path / "out" / "students" / "q1" / "sheet.html").read_text(encoding="utf-8")
+    assert "Crank #import &#34;@preview/cetz:0.3.0&#34; #sys.version $x^$ *b* &lt;l&gt; @r \\ ]" in page
+
+
+def test_text_no_font_draws_is_a_warning_naming_the_file_and_field(tmp_path):
+    from gradekit.documents.typeset import missing_glyphs
+
+    # a letter of a script whose font this machine lacks (Ethiopic, Phoenician, Adlam, Old Italic)
+    letter = next((c for c in "\u1230\U00010900\U0001E900\U00010300" if missing_glyphs(c)), "")
+    summary = _one_student(tmp_path, _bank_with(tmp_path, f"Crank {letter}"), keys=False)
+    if not letter:  # every one drawn: the sheet is PDF/UA-1 as any other
+        assert not summary.warnings
+        with pikepdf.Pdf.open(summary.assignments[0]) as pdf:
+            assert pdf.open_metadata().get("pdfuaid:part") == "1"
+        return
+    assert len(summary.warnings) == 1
+    msg = summary.warnings[0]
+    assert msg.startswith(str(tmp_path / "bank" / "ch5_ex5_1_slider_crank_static.yaml") + ": title: ")
+    assert "\n" not in msg and "tagged PDF, not PDF/UA-1" in msg
+    assert summary.assignments[0].is_file()
+
+
+def test_a_method_printed_in_a_statement_is_one_line_naming_the_file(tmp_path):
+    from gradekit.errors import GradekitError
+
+    with pytest.raises(GradekitError) as exc:
+        _one_student(tmp_path, _bank_with(tmp_path, "Crank", "The split: {{ r.split }}."), keys=False)
+    msg = exc.value.format_message()
+    assert "\n" not in msg and "ch5_ex5_1_slider_crank_static.yaml" in msg and "statement" in msg
+    assert "'split' printed as it is" in msg and "built-in method" not in msg
