@@ -264,10 +264,13 @@ def bank_check(ids: tuple[str, ...], variants: int, class_size: int, bank: str |
     help="Credit a later answer that is right from the student's own wrong earlier ones (error carried forward), "
     "on every problem the assignment does not set carry_forward: false.",
 )
+@click.option("--strict", is_flag=True,
+              help="Exit 1 when anything needs attention: an unreadable file or answer, a file tied to no student, "
+                   "a file naming another student inside (the outputs are still written).")
 @_bank_opt
 def grade(
     assignment: str, roster: str, submissions: str, out: str, manifest: str | None, reveal: bool,
-    recompute_keys: bool, carry_forward: bool, bank: str | None,
+    recompute_keys: bool, carry_forward: bool, bank: str | None, strict: bool,
 ) -> None:
     """Grade every submission (a folder, or an LMS's zip) against each student's key and write grades, LMS
     imports, feedback and a report into OUT.
@@ -294,12 +297,19 @@ def grade(
         recompute_keys=recompute_keys, carry_forward=carry_forward, warn=lambda note: log.warning("warning: %s", note),
         progress=progress,
     )
-    log.info("graded %d of %d students; %d integrity flag(s); results in %s", res.graded, len(res.grades),
-             len(res.flags), out)
+    attention = res.attention()
+    missing = len(res.missing)
+    log.info("graded %d of %d students (%d without a submission); %d need attention; %d integrity flag(s); "
+             "results in %s", res.graded, len(res.grades), missing, len(attention), len(res.flags), out)
+    for line in attention:
+        log.warning("  %s", line)
     if not res.ok:
         raise GradekitError(
             f"expected at least one readable submission, got none; see {out}/report.md", path=submissions
         )
+    if strict and attention:
+        raise GradekitError(f"expected every file and answer read (--strict), got {len(attention)} that need "
+                            f"attention (listed above and in {out}/report.md)", path=submissions)
 
 
 @main.command()

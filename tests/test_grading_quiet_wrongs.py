@@ -234,3 +234,29 @@ def test_a_title_with_dollar_signs_is_text_everywhere(course, tmp_path, title):
     assert (tmp_path / "out" / "histogram.png").stat().st_size > 1000
     report = (tmp_path / "out" / "report.md").read_text(encoding="utf-8")
     assert title.replace("$", "") in report.replace("\\", "").replace("$", "")
+
+
+def test_grade_ends_with_what_needs_attention_and_strict_exits_non_zero(course, tmp_path, caplog):
+    """'graded 6 of 6' for a class where files could not be read hid them: the console names each file
+    and student that needs a look, and --strict turns them into exit 1 (the outputs still written)."""
+    root, asg, keys = course
+    subs = tmp_path / "subs"
+    subs.mkdir()
+    header = "student_id,key,value,unit"
+    rows = _rows(keys, "1")
+    rows[0] = rows[0].rsplit(",", 2)[0] + ",abc," + rows[0].rsplit(",", 1)[1]
+    (subs / "1.csv").write_text("\n".join([header, *rows]) + "\n", encoding="utf-8")
+    (subs / "2.csv").write_bytes(b"\x00\x01\x02binary\xff")
+    (subs / "stranger.csv").write_text("\n".join([header, "9999,p1.T,1,N*m"]) + "\n", encoding="utf-8")
+    plain = _grade(root, asg, subs, tmp_path / "out")
+    assert plain.exit_code == 0, plain.output
+    said = caplog.text
+    assert "graded 2 of 3 students (1 without a submission); 3 need attention" in said
+    assert "unreadable file: " in said and "2.csv: file: expected a CSV text file, got binary data" in said
+    assert "no student: " in said and "stranger.csv: unknown student '9999'" in said
+    assert "answers not read: 1 (Student 1): " in said and "expected a number, got 'abc'" in said
+    args = ["grade", str(asg), "--roster", str(root / "roster.csv"), "--submissions", str(subs), "--out",
+            str(tmp_path / "strict"), "--manifest", str(root / "gen" / "manifest.json"), "--strict"]
+    strict = CliRunner().invoke(main, args)
+    assert strict.exit_code == 1 and "--strict" in strict.output.splitlines()[-1]
+    assert (tmp_path / "strict" / "grades.csv").exists()

@@ -84,6 +84,21 @@ class BatchResult:
         """At least one submission could be tied to a student and graded (else: exit 1)."""
         return self.graded > 0
 
+    def attention(self) -> list[str]:
+        """What needs the instructor's look before the grades go out, one line each, naming the student
+        and the file: unreadable files, files tied to no student, a file naming another student inside,
+        and answers that could not be read or were not given."""
+        lines = [f"unreadable file: {f.detail if f.detail.startswith(f.path) else f'{f.path}: {f.detail}'}"
+                 for f in self.files if f.status == "unreadable"]
+        lines += [f"no student: {f.path}: {f.detail}" for f in self.files if f.status == "unknown student"]
+        lines += [f"conflict: {flag.describe()}" for flag in self.flags if isinstance(flag, IdConflict)]
+        for g in self.grades:
+            if g.submission is not None and g.submission.readable and g.issues:
+                first = g.issues[0]
+                more = f" (+{len(g.issues) - 1} more)" if len(g.issues) > 1 else ""
+                lines.append(f"answers not read: {g.student.student_id} ({g.student.display}): {first}{more}")
+        return lines
+
     @property
     def clean(self) -> bool:
         """Every file was read without a message and matched a student; nobody is missing."""
