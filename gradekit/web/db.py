@@ -224,9 +224,9 @@ def put_setting(conn: Connection, name: str, value: str) -> None:
 
 @dataclass(frozen=True)
 class Attempt:
-    """One stored attempt (a row of ``attempts``)."""
+    """One stored attempt (a row of ``attempts``; ``id`` None: just stored, its number not read back)."""
 
-    id: int
+    id: int | None
     submission_id: int
     student_id: str
     key: str
