@@ -106,6 +106,7 @@ def _same(printed: str, values: set[float]) -> bool:
                math.isclose(x, float(fmt(v, 4)), rel_tol=1e-3, abs_tol=1e-9) for v in values)
 
 
+@pytest.mark.slow  # the whole bank for three students, with keys
 def test_every_printed_parameter_is_the_students_own(whole_bank):
     asg, out, _ = whole_bank
     labels = [it.label for it in asg.items]
@@ -144,6 +145,7 @@ def test_every_printed_parameter_is_the_students_own(whole_bank):
     assert checked > 100
 
 
+@pytest.mark.slow  # the whole bank for three students, with keys
 def test_every_figure_reference_is_a_caption_of_that_problem(whole_bank):
     asg, out, _ = whole_bank
     labels = [it.label for it in asg.items]
@@ -179,6 +181,7 @@ def test_figures_follow_the_assignment_order_and_cases(tmp_path, bank_ids):
     assert "four-bar linkage of Figure 5 has" in flat and "four-bar linkage of Figure 6 has" in flat
 
 
+@pytest.mark.slow  # the whole bank for three students, with keys
 def test_titles_sources_and_grade_headers_hold_no_book_values(whole_bank):
     asg, out, _ = whole_bank
     for item in asg.items:
@@ -189,6 +192,7 @@ def test_titles_sources_and_grade_headers_hold_no_book_values(whole_bank):
             assert "seed" not in text, (p.id, text)
 
 
+@pytest.mark.slow  # the whole bank for three students, with keys
 def test_answer_points_are_readable_and_add_up(whole_bank):
     asg, out, _ = whole_bank
     rows = list(csv.DictReader((out / "key.csv").open(encoding="utf-8")))
@@ -204,6 +208,7 @@ def test_answer_points_are_readable_and_add_up(whole_bank):
     assert "1.111" not in text and "0.8333" not in text
 
 
+@pytest.mark.slow  # the whole bank for three students, with keys
 def test_true_scale_figures_fit_and_state_their_scale(whole_bank):
     asg, out, summary = whole_bank
     assert not [w for w in summary.warnings if "wider" in w]
@@ -243,18 +248,25 @@ def test_a_drawing_too_wide_for_a_page_is_printed_at_a_smaller_stated_scale(tmp_
         assert float(page.mediabox.width) <= LANDSCAPE[0] + 200
 
 
+@pytest.mark.slow  # the whole bank for three students, with keys
 def test_combined_pdfs_name_each_student_and_keys_start_on_odd_pages(whole_bank):
     asg, out, _ = whole_bank
-    for name, suffix in (("assignments.pdf", ""), ("keys.pdf", ": key")):
+    def flat(items) -> list:
+        return [x for o in items for x in (flat(o) if isinstance(o, list) else [o])]
+
+    for name, what in (("assignments.pdf", ""), ("keys.pdf", "worked key, ")):
         reader = pypdf.PdfReader(str(out / name))
         tops = [o for o in reader.outline if not isinstance(o, list)]
-        assert [o.title for o in tops] == [f"Student {s} ({s}){suffix}" for s in STUDENTS]
+        # each student's bookmark is their document's title
+        assert [o.title for o in tops] == [f"MEG373 Every bank problem: {what}Student {s} ({s})" for s in STUDENTS]
         starts = [reader.get_destination_page_number(o) for o in tops]
         assert all(p % 2 == 0 for p in starts), f"{name}: students start on pages {[p + 1 for p in starts]}"
-        nested = [o for o in reader.outline if isinstance(o, list)]
-        assert all(len(n) >= len(asg.items) for n in nested)
+        nested = [flat(o) for o in reader.outline if isinstance(o, list)]
+        assert len(nested) == len(STUDENTS)
+        assert all(sum(bool(re.match(r"p\d+\. ", b.title)) for b in n) == len(asg.items) for n in nested)
 
 
+@pytest.mark.slow  # the whole bank for three students, with keys
 def test_keys_name_joints_as_printed_and_print_no_float_noise(whole_bank):
     asg, out, _ = whole_bank
     labels = [it.label for it in asg.items]
@@ -283,6 +295,7 @@ def test_keys_name_joints_as_printed_and_print_no_float_noise(whole_bank):
                 assert "magnitudes, which do not add" in _flat(sections[item.label])
 
 
+@pytest.mark.slow  # the whole bank for three students, with keys
 def test_sheet_says_how_to_type_each_unit(whole_bank):
     """Each answer of answers.csv is asked on the sheet, and each unit the file spells differently
     from the sheet (N*m for N·m) is explained there."""
@@ -317,6 +330,7 @@ def test_points_step_of_the_assignment_is_kept_in_key_csv(tmp_path):
     assert "p1. Dynamic force analysis of a four-bar linkage" in sheet and "(7 points)" in sheet
 
 
+@pytest.mark.slow  # the whole bank for three students, with keys
 def test_no_heading_alone_at_a_page_foot_and_no_page_of_stragglers(whole_bank):
     asg, out, _ = whole_bank
     for sid in STUDENTS:
@@ -341,6 +355,7 @@ def v_points(asg, item, sid) -> list[str]:
     return list(student_variant(asg, item, sid).result.cases[0].solution.linkage.points)
 
 
+@pytest.mark.slow  # the whole bank for three students, with keys
 def test_key_statements_name_the_sheets_figures(whole_bank):
     asg, out, _ = whole_bank
     labels = [it.label for it in asg.items]
