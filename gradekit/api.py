@@ -185,6 +185,7 @@ def grade(
     carry_forward: bool = False,
     warn=None,
     progress=None,
+    exports: list[str] | None = None,
 ):
     """What ``gradekit grade`` does: grade every submission against the class's keys and write
     grades, LMS exports, feedback and the report into *out*. Returns the batch result.
@@ -195,23 +196,26 @@ def grade(
     manifest's re-draws). *warn* receives each warning line; ignored when None. *progress* is
     called with (problems done, problems) while keys are derived for the class. *carry_forward*
     gives carried-forward credit on every problem whose assignment entry does not turn it off
-    (``carry_forward:`` in the assignment turns it on without the option).
+    (``carry_forward:`` in the assignment turns it on without the option). *exports* names what to
+    write (`gradekit.grading.exports.EXPORTS`), over the assignment's ``exports:``.
     """
     return _grade(assignment, roster, submissions, out, manifest, reveal, bank, recompute_keys, carry_forward, warn,
-                  progress)
+                  progress, exports)
 
 
 def _grade(assignment, roster, submissions, out, manifest, reveal, bank, recompute_keys, carry_forward, warn,
-           progress):
+           progress, exports=None):
     from gradekit.assignment import check_manifest, class_keys, frozen_keys, load_assignment, redraws_from_manifest
     from gradekit.grading.batch import grade_batch
-    from gradekit.roster import read_roster
+    from gradekit.grading.exports import choose_exports
+    from gradekit.roster import canvas_assignment_id, read_roster
 
     def say(text: str) -> None:
         if warn is not None:
             warn(text)
 
     asg = load_assignment(assignment, bank)
+    chosen = choose_exports(exports, field="--exports") if exports is not None else asg.exports
     students = read_roster(Path(roster))
     ids = [s.student_id for s in students]
     redraws = None
@@ -251,7 +255,8 @@ def _grade(assignment, roster, submissions, out, manifest, reveal, bank, recompu
     titles = {it.label: f"{it.label}: {it.problem.title}" for it in asg.items}
     return grade_batch(
         keys, students, Path(submissions), Path(out), assignment_title=asg.title, reveal=reveal, problem_titles=titles,
-        hint=asg.feedback, carry=carry, partial=asg.partial_credit(),
+        hint=asg.feedback, carry=carry, exports=chosen,
+        canvas_assignment_id=canvas_assignment_id(Path(roster), asg.title), partial=asg.partial_credit(),
     )
 
 

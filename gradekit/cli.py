@@ -264,13 +264,16 @@ def bank_check(ids: tuple[str, ...], variants: int, class_size: int, bank: str |
     help="Credit a later answer that is right from the student's own wrong earlier ones (error carried forward), "
     "on every problem the assignment does not set carry_forward: false.",
 )
+@click.option("--exports", default=None, metavar="NAMES",
+              help="Comma-separated outputs to write, over the assignment's exports: list: grades, canvas, moodle, "
+              "feedback, report, histogram (the default set), moodle-feedback-zip, canvas-feedback-zip.")
 @click.option("--strict", is_flag=True,
               help="Exit 1 when anything needs attention: an unreadable file or answer, a file tied to no student, "
                    "a file naming another student inside (the outputs are still written).")
 @_bank_opt
 def grade(
     assignment: str, roster: str, submissions: str, out: str, manifest: str | None, reveal: bool,
-    recompute_keys: bool, carry_forward: bool, bank: str | None, strict: bool,
+    recompute_keys: bool, carry_forward: bool, exports: str | None, strict: bool, bank: str | None,
 ) -> None:
     """Grade every submission (a folder, or an LMS's zip) against each student's key and write grades, LMS
     imports, feedback and a report into OUT.
@@ -296,6 +299,7 @@ def grade(
         assignment, roster, submissions, out, manifest=manifest, reveal=reveal, bank=bank,
         recompute_keys=recompute_keys, carry_forward=carry_forward, warn=lambda note: log.warning("warning: %s", note),
         progress=progress,
+        exports=[n for n in exports.split(",") if n.strip()] if exports is not None else None,
     )
     attention = res.attention()
     missing = len(res.missing)

@@ -207,3 +207,10 @@ def test_full_width_digits_read_as_a_number():
 
     assert parse_value("４０．８５", decimal_comma=False) == (40.85, "")
     assert parse_value("－１２．５ N", decimal_comma=False) == (-12.5, "N")
+
+
+@pytest.mark.parametrize(("text", "expected"), [("-68,52300", -68.523), ("1,12000", 1.12), ("0,125", 0.125)])
+def test_a_decimal_comma_with_more_digits_is_no_thousands_separator(text, expected):
+    from gradekit.grading import parse_value
+
+    assert parse_value(text, decimal_comma=True) == (pytest.approx(expected), "")

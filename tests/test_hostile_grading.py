@@ -235,7 +235,7 @@ def test_ctrl_c_keeps_the_previous_complete_run(setup: Path, keys, monkeypatch: 
     def interrupted(*args, **kwargs):
         raise KeyboardInterrupt
 
-    monkeypatch.setattr("gradekit.grading.batch.write_histogram", interrupted)
+    monkeypatch.setattr("gradekit.grading.exports.write_histogram", interrupted)
     r = grade(setup)
     assert r.exit_code == 130
     assert "interrupted (Ctrl-C)" in r.output

@@ -8,21 +8,12 @@ from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-from gradekit.csvsafe import StagedFolder, os_errors, write_staged
+from gradekit.csvsafe import StagedFolder, os_errors
 from gradekit.errors import GradekitError
 from gradekit.grading.archive import submissions_folder
 from gradekit.grading.compare import StudentGrade, grade_class, grade_student
-from gradekit.grading.exports import (
-    _md_cell,
-    feedback_pages,
-    report_markdown,
-    safe_names,
-    write_canvas,
-    write_grades,
-    write_histogram,
-    write_moodle,
-    write_text,
-)
+from gradekit.grading.exports import DEFAULT_EXPORTS, GradedClass, choose_exports, write_exports
+from gradekit.grading.feedback import md_cell
 from gradekit.grading.integrity import IntegrityFlag, find_copies
 from gradekit.grading.reader import IdIndex, KeyIndex, Submission, read_file, special_kind
 from gradekit.keys import KeyEntry, PartialCredit
@@ -333,15 +324,7 @@ def _attention(grades: Sequence[StudentGrade], conflicts: Sequence[IntegrityFlag
         lines.append(f"{len(skipped)} special file(s) skipped without being opened (see Files)")
     if not lines:
         return ""
-    return "\n".join(["## Check first", "", *("- " + _md_cell(line) for line in lines), "", ""])
-
-
-def _first_section(report: str, section: str) -> str:
-    """*report* with *section* as its first ``##`` section (after the summary lines)."""
-    cut = report.find("\n## ")
-    if not section or cut < 0:
-        return report + ("\n" + section if section else "")
-    return report[: cut + 1] + section + report[cut + 1 :]
+    return "\n".join(["## Check first", "", *("- " + md_cell(line) for line in lines), "", ""])
 
 
 def grade_batch(
@@ -357,6 +340,8 @@ def grade_batch(
     hint: str = "direction",
     carry=None,
     partial: Mapping[str, PartialCredit] | None = None,
+    exports: Sequence[str] | None = None,
+    canvas_assignment_id: str = "",
 ) -> BatchResult:
     """Grade every submission in a folder and write grades, LMS imports, feedback and a report.
 
@@ -383,6 +368,9 @@ def grade_batch(
             report has a section on them.
         partial: partial credit per problem (`PartialCredit`, by ``KeyEntry.problem``): an answer within
             that wider band earns its share of the points, and its feedback says so.
+        exports: what to write, names of `gradekit.grading.exports.EXPORTS` (None: `DEFAULT_EXPORTS`, without
+            the histogram when *histogram* is False).
+        canvas_assignment_id: the Canvas assignment canvas.csv's grade column names (``<title> (<id>)``).
 
     Returns:
         The grades, every file's fate, the integrity flags and the files written.
@@ -407,32 +395,18 @@ def grade_batch(
     if carry is not None:
         grades = [carry.apply(g) for g in grades]
     problems = list(dict.fromkeys(e.problem for e in keys))
-    names = safe_names(s.student_id for s in students)
     conflicts = _conflicts(grades, entries, students)
     flags = conflicts + find_copies(grades, keys)
-    image = "histogram.png" if histogram else None
-    report = report_markdown(
-        assignment_title=assignment_title, grades=grades, files=[(f.path, f.status, f.detail) for f in intake.files],
-        flags=flags, histogram=image, carried=carry is not None,
+    chosen = choose_exports(exports) if exports is not None else tuple(
+        e for e in DEFAULT_EXPORTS if histogram or e != "histogram")
+    graded = GradedClass(
+        grades, problems, titles, assignment_title, reveal, hint, carried=carry is not None,
         carry_limits=carry.limits() if carry is not None else (),
+        files=[(f.path, f.status, f.detail) for f in intake.files], flags=flags,
+        attention=_attention(grades, conflicts, intake.files), canvas_assignment_id=canvas_assignment_id,
     )
-    report = _first_section(report, _attention(grades, conflicts, intake.files))
     with StagedFolder(out, MARKER) as stage, os_errors(out):
-        root = stage.root
-        feedback = root / "feedback"
-        feedback.mkdir()
-        for g in grades:
-            md, page = feedback_pages(g, titles, assignment_title, reveal, hint)
-            stem = names[g.student.student_id]
-            write_staged(feedback / f"{stem}.md", md)
-            write_staged(feedback / f"{stem}.html", page)
-        write_grades(root / "grades.csv", grades, problems, titles, carried=carry is not None)
-        write_canvas(root / "canvas.csv", grades, assignment_title)
-        write_moodle(root / "moodle.csv", grades, assignment_title)
-        if histogram:
-            write_histogram(root / "histogram.png", [g.percent for g in grades if g.submission is not None],
-                            assignment_title)
-        write_text(root / "report.md", report)
+        write_exports(stage.root, graded, chosen)
         written = stage.commit(
             "gradekit grading output; files listed here are rewritten by the next run, others are left alone",
             extra_previous=() if stage.previous() else _unlisted_outputs(out),
@@ -444,7 +418,8 @@ def _unlisted_outputs(out: Path) -> list[str]:
     """What an older gradekit wrote into OUT without a listing: the fixed names and the feedback."""
     if not (out / MARKER).is_file():
         return []
-    fixed = ["grades.csv", "canvas.csv", "moodle.csv", "report.md", "histogram.png"]
+    fixed = ["grades.csv", "canvas.csv", "moodle.csv", "report.md", "histogram.png", "moodle-feedback.zip",
+             "canvas-feedback.zip"]
     feedback = sorted(
         f"feedback/{p.name}" for p in (out / "feedback").glob("*") if p.suffix in (".md", ".html") and p.is_file()
     )

@@ -17,6 +17,7 @@ from typing import NamedTuple
 from gradekit import units
 from gradekit.csvsafe import decode_bytes, sniff_delimiter, unguard
 from gradekit.errors import GradekitError
+from gradekit.grading.lms import lms_name
 from gradekit.roster import Student, header_key
 
 MAX_BYTES = 2_000_000  # a submission of a few dozen answers is a few kB
@@ -85,8 +86,6 @@ class Submission:
 # LMS download names. Canvas: ``lastfirst[_LATE]_<user id>_<submission id>_<uploaded name>``;
 # Moodle: ``<Full Name>_<participant id>_assignsubmission_file_`` (a folder, or a prefix of the
 # file name). The numbers there are the LMS's own ids, never student numbers.
-_CANVAS = re.compile(r"(?P<name>[^\W\d_]+(?:[_ -][^\W\d_]+)*?)_(?:late_)?(?P<uid>\d+)_\d+_.+", re.IGNORECASE)
-_MOODLE = re.compile(r"(?P<name>.+?)_(?P<uid>\d+)_assignsubmission_[a-z]+_.*", re.IGNORECASE | re.DOTALL)
 
 
 def _letters(text: str) -> list[str]:
@@ -158,7 +157,7 @@ class IdIndex:
     def from_path(self, relative: str) -> set[str]:
         """The roster students a (relative) file path points to: none, one, or several (ambiguous).
 
-        Where an LMS put its name (Canvas, Moodle: see `_CANVAS`, `_MOODLE`), only the LMS user
+        Where an LMS put its name (Canvas, Moodle: `gradekit.grading.lms.lms_name`), only the LMS user
         id (through the roster's LMS ids) or else the student's name in it counts; a number there
         is never read as a student number. Otherwise a folder named exactly by a student id, or
         a student id standing as a word of the file name (``1001.csv``, ``1001_answers.csv``,
@@ -166,9 +165,9 @@ class IdIndex:
         """
         parts = [p for p in re.split(r"[/\\]+", relative) if p]
         for part in parts:
-            m = _MOODLE.fullmatch(part) or _CANVAS.fullmatch(part)
+            m = lms_name(part)
             if m:
-                sid = self.lms.get(m["uid"]) or self.names.get("".join(_letters(m["name"])))
+                sid = self.lms.get(m.uid) or self.names.get("".join(_letters(m.name)))
                 return {sid} if sid else set()
         found = set()
         for folder in parts[:-1]:
@@ -212,7 +211,8 @@ class KeyIndex:
 
 
 _NUM = re.compile(
-    r"\s*(?P<num>[+-]?(?:\d{1,3}(?:,\d{3})+(?:\.\d*)?|\d{1,3}(?:\.\d{3})+(?:,\d*)?|\d+(?:[.,]\d*)?|[.,]\d+)"
+    r"\s*(?P<num>[+-]?(?:\d{1,3}(?:,\d{3})+(?![\d,])(?:\.\d*)?|\d{1,3}(?:\.\d{3})+(?![\d.])(?:,\d*)?"
+    r"|\d+(?:[.,]\d*)?|[.,]\d+)"
     r"(?:[eE][+-]?\d+)?)"
     r"(?:\s*[x×*·]\s*10\s*(?:\^|\*\*)\s*(?P<exp>[+-]?\d+))?\s*(?P<unit>.*?)\s*"
 )
