@@ -93,7 +93,11 @@ async def student(c: httpx.AsyncClient, sid: str, token: str, answers: list, dea
                   rng: random.Random, log: dict) -> None:
     """One signed-in student: submit the whole table until *deadline*."""
     n = 0
-    await asyncio.sleep(rng.uniform(0, think * 2))
+
+    async def pause() -> None:  # the think time, never past the deadline
+        await asyncio.sleep(min(rng.uniform(0, think * 2), max(0.0, deadline - time.monotonic())))
+
+    await pause()
     while time.monotonic() < deadline:
         n += 1
         form_id = f"{sid}-{n}"
@@ -118,7 +122,7 @@ async def student(c: httpx.AsyncClient, sid: str, token: str, answers: list, dea
         else:
             log["acknowledged"][form_id] = int(ack.group(1))
         if think:
-            await asyncio.sleep(rng.uniform(0, think * 2))
+            await pause()
 
 
 async def load(urls: list[str], codes: dict, answers: dict, duration: float, think: float) -> dict:
