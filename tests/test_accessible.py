@@ -282,3 +282,19 @@ def test_a_method_printed_in_a_statement_is_one_line_naming_the_file(tmp_path):
     msg = exc.value.format_message()
     assert "\n" not in msg and "ch5_ex5_1_slider_crank_static.yaml" in msg and "statement" in msg
     assert "'split' printed as it is" in msg and "built-in method" not in msg
+
+
+def test_sheet_html_reads_at_200_percent_zoom_without_horizontal_scrolling(generated):
+    """Debian's chromium at a 1280-pixel window zoomed to 200 % (a 640-pixel CSS viewport, two device
+    pixels a CSS pixel): no page scrolls sideways, the long name neither; every figure fits the width."""
+    from test_web_helpers import browser
+
+    with browser() as b:
+        page = b.new_page(viewport={"width": 640, "height": 900}, device_scale_factor=2)
+        for sid in NAMES:
+            page.goto((generated / "students" / sid / "sheet.html").as_uri())
+            width = page.evaluate("document.documentElement.clientWidth")
+            assert page.evaluate("document.documentElement.scrollWidth") <= width, sid
+            widths = page.evaluate(
+                "[...document.querySelectorAll('svg, table')].map(e => e.getBoundingClientRect().right)")
+            assert widths and max(widths) <= width, sid
