@@ -15,6 +15,9 @@ def fmt(value: float, sig: int = 5) -> str:
         return str(value)
     if value == 0:
         return "0"
+    text = f"{value:.{sig}g}"  # correctly rounded to *sig* figures; without an exponent for most values
+    if "e" not in text:
+        return text.rstrip("0").rstrip(".") if "." in text else text
     digits = sig - 1 - int(math.floor(math.log10(abs(value))))
     rounded = round(value, digits)
     text = f"{rounded:.{max(digits, 0)}f}"
