@@ -4,6 +4,7 @@ first's page; the instructor's downloads are what `gradekit grade` writes from t
 
 from __future__ import annotations
 
+import csv
 import shutil
 
 import pytest
@@ -69,6 +70,7 @@ def test_a_student_is_graded_at_once_uses_up_attempts_uploads_and_the_instructor
         receipt = page.inner_text("#receipt")
         assert f"{b}: refused (all 2 attempts used)" in receipt and f"{c}: attempt 1 of 2" in receipt
         assert _row(page, c).locator(".verdict").inner_text() == "within the tolerance"
+        score = page.inner_text("#score")  # the page's grade of the final answers
 
         # another student signs in with their own code and sees only their own page
         other = chromium.new_page()
@@ -101,6 +103,9 @@ def test_a_student_is_graded_at_once_uses_up_attempts_uploads_and_the_instructor
     gradekit.grade(course / "hw.yaml", course / "roster.csv", subs, course / "cli", manifest=manifest)
     for name in ("grades.csv", "canvas.csv", "moodle.csv"):
         assert files[name].read_bytes() == (course / "cli" / name).read_bytes(), name
+    with open(course / "cli" / "grades.csv", newline="", encoding="utf-8") as f:
+        row = next(r for r in csv.DictReader(f) if r["student_id"] == "1001")
+    assert [float(x) for x in score.split(" / ")] == [float(row["total"]), float(row["max"])]
     # the report and feedback name the graded files: from the page's own answers folder, byte for byte
     exported = course / "gen" / "online-export"
     gradekit.grade(course / "hw.yaml", course / "roster.csv", exported / "submissions", course / "cli2",

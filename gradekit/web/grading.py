@@ -2,10 +2,11 @@
 
 A student's answers on the page are an answers CSV in the layout of the template `generate` writes
 (``student_id,key,value,unit``, a row per key, the key's unit filled in), read by the same reader as
-a submitted file, graded by the same per-student function `grade_batch` applies to each student
-(`gradekit.grading.compare.grade_student`, then the assignment's carried-forward credit) against the
-keys frozen in ``keys.json``, and explained by the same feedback rows. The instructor's downloads are
-`gradekit.grade` itself run over those CSV files, so they are what ``gradekit grade`` writes from them.
+a submitted file (`read_file`), graded by `gradekit.grading.compare.grade_student` (`grade_class`,
+which `grade_batch` runs over the class, for one student) with the assignment's partial credit and
+then its carried-forward credit, against the keys frozen in ``keys.json``, and explained by the same
+feedback rows (`feedback_pages`). The instructor's downloads are `gradekit.grade` itself run over
+those CSV files, so they are what ``gradekit grade`` writes from them.
 """
 
 from __future__ import annotations
@@ -67,6 +68,7 @@ class Course:
         self.titles = {it.label: f"{it.label}: {it.problem.title}" for it in self.assignment.items}
         self._ids = IdIndex(self.students)
         self._key_index = KeyIndex(dict.fromkeys(e.key for sid in self.by_id for e in frozen[sid]))
+        self._partial = self.assignment.partial_credit()  # as `gradekit grade` gives it
         self._carry = None
         credit = self.assignment.carry()
         if any(credit.values()):  # as `gradekit grade` gives it: the variants behind the frozen keys
@@ -128,7 +130,7 @@ class Course:
         return next((s for s in subs if s.student_id == student_id), None)
 
     def _graded(self, student_id: str, sub: Submission | None) -> StudentGrade:
-        g = grade_student(self.by_id[student_id], self.entries(student_id), sub)
+        g = grade_student(self.by_id[student_id], self.entries(student_id), sub, self._partial)
         return self._carry.apply(g) if self._carry is not None else g
 
     def feedback(self, grade: StudentGrade, reveal: bool) -> str:

@@ -14,13 +14,16 @@ from collections import Counter
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from gradekit.csvsafe import write_csv
 from gradekit.errors import GradekitError
-from gradekit.grading.compare import StudentGrade
 from gradekit.web import db
 from gradekit.web.access import code_matches, hash_password, load_secret, password_matches
 from gradekit.web.grading import Course, Paths, current_answers, export
+
+if TYPE_CHECKING:
+    from gradekit.grading.compare import StudentGrade
 
 MAX_VALUE = 200  # characters of a typed value or unit kept (the reader refuses longer cells anyway)
 EXPORT_FOLDER = "online-export"  # beside the manifest: the page's downloads
