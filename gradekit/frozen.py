@@ -81,12 +81,12 @@ def loads(text: str | bytes, path: str) -> dict[str, list[KeyEntry]]:
         for sid, rows in students.items():
             entries = []
             for key, (value, tol_abs, found) in rows.items():
-                problem, tolerance, tolerances, fields = shared[key]
+                problem, tolerance, tolerances, (unit, points, description, sign) = shared[key]
                 tol = tolerances.get(tol_abs)
                 if tol is None:
                     tol = tolerances[tol_abs] = tolerance(tol_abs)
                 mistakes = tuple([Mistake(name, names[name], v) for name, v in found]) if found else ()
-                entries.append(KeyEntry(sid, problem, key, value, tolerance=tol, mistakes=mistakes, **fields))
+                entries.append(KeyEntry(sid, problem, key, value, unit, tol, points, description, sign, mistakes))
                 numbers.append(value)
                 floors.append(tol_abs)
                 numbers.extend([v for _, v in found])
@@ -125,8 +125,7 @@ def _shared(key: str, a: dict) -> tuple:
     def tolerance(floor_abs: float) -> Tolerance:
         return Tolerance(t["mode"], rel, floor_abs, sigfigs=int(sigfigs), floor=floor, period=period)
 
-    fields = {"unit": str(a["unit"]), "points": _nonnegative(a["points"], f"{key} points"),
-              "description": str(a["description"]), "sign_convention": str(a["sign"])}
+    fields = (str(a["unit"]), _nonnegative(a["points"], f"{key} points"), str(a["description"]), str(a["sign"]))
     return str(a["problem"]), tolerance, {}, fields
 
 
