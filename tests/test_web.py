@@ -142,6 +142,9 @@ def test_a_form_is_refused_in_another_session_stored_once_and_kept_through_a_kil
             first = page.request.post(server.url + "/student/submit", form=form)
             again = page.request.post(server.url + "/student/submit", form=form)
             assert "Submission" in first.text() and "had been sent before" in again.text()
+            theirs = other.locator('input[name="csrf"]').first.get_attribute("value")
+            taken = other.request.post(server.url + "/student/submit", form={**form, "csrf": theirs})
+            assert taken.status == 409 and "Not stored" in taken.text()  # another's form id: nothing stored
             page.fill(f'input[name="value:{a}"]', a_right)
             page.click("#submit")
             assert page.locator("#receipt").get_attribute("data-submission")

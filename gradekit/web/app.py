@@ -193,8 +193,12 @@ class Page:
                 unit = form.get(f"unit:{e.key}")
                 typed[e.key] = (value, unit if isinstance(unit, str) else "")
         source = "upload" if form.get("source") == "upload" else "form"
-        receipt, page = await run_in_threadpool(self.service.submit, session.student_id, str(form.get("form_id", "")),
-                                                typed, source)
+        try:
+            receipt, page = await run_in_threadpool(self.service.submit, session.student_id,
+                                                    str(form.get("form_id", "")), typed, source)
+        except GradekitError as exc:  # a form id another student's submission carries: nothing stored
+            return self.render(request, "message.html", session, fresh, 409, heading="Not stored",
+                               message=exc.format_message())
         return self.student_page(request, session, fresh, page, receipt)
 
     async def upload(self, request: Request) -> Response:
