@@ -226,19 +226,28 @@ def test_a_huge_unit_cell_is_refused_at_once(setup: Path, keys) -> None:
     assert "1001.csv:4: unit: expected a unit of at most 40 characters, got 100,000" in feedback
 
 
-def test_ctrl_c_keeps_the_previous_complete_run(setup: Path, keys, monkeypatch: pytest.MonkeyPatch) -> None:
+def test_ctrl_c_keeps_the_previous_complete_run(setup: Path, keys) -> None:
+    """Ctrl-C while a second run writes (seen by its staging folder appearing): the previous complete
+    run is what OUT holds, and no staging folder is left."""
+    import signal
+
     (setup / "sub" / "1001.csv").write_text(answers(keys["1001"], "1001"))
     assert grade(setup).exit_code == 0
     before = {p.relative_to(setup / "out"): p.read_bytes() for p in (setup / "out").rglob("*") if p.is_file()}
     (setup / "sub" / "1002.csv").write_text(answers(keys["1002"], "1002"))
-
-    def interrupted(*args, **kwargs):
-        raise KeyboardInterrupt
-
-    monkeypatch.setattr("gradekit.grading.exports.write_histogram", interrupted)
-    r = grade(setup)
-    assert r.exit_code == 130
-    assert "interrupted (Ctrl-C)" in r.output
+    args = [sys.executable, "-m", "gradekit", "grade", str(setup / "hw.yaml"), "--roster", str(setup / "roster.csv"),
+            "--submissions", str(setup / "sub"), "--out", str(setup / "out")]
+    run = subprocess.Popen(args, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 60
+    while run.poll() is None and time.monotonic() < deadline:
+        if any(p.name.startswith((".out.partial-", ".gradekit.partial-")) for p in [*setup.iterdir(),
+                                                                                   *(setup / "out").iterdir()]):
+            run.send_signal(signal.SIGINT)
+            break
+        time.sleep(0.002)
+    _, err = run.communicate(timeout=60)
+    assert run.returncode == 130, err  # (0 would mean the run finished before its staging folder was seen)
+    assert "interrupted (Ctrl-C)" in err
     after = {p.relative_to(setup / "out"): p.read_bytes() for p in (setup / "out").rglob("*") if p.is_file()}
     assert after == before and percent(setup)["1002"] == "0.0"
     assert sorted(p.name for p in setup.iterdir()) == ["hw.yaml", "out", "roster.csv", "sub"]  # no partial folder
