@@ -61,6 +61,7 @@ def _templates() -> jinja2.Environment:
         loader=jinja2.FileSystemLoader(str(Path(__file__).parent / "templates")),
         autoescape=True,
         undefined=jinja2.StrictUndefined,
+        auto_reload=False,  # the templates are the installed package's: no stat() of each file per page
     )
     env.filters["pts"] = lambda x: f"{x:g}"
     return env
