@@ -81,7 +81,8 @@ def generate(
 ) -> GenerateSummary:
     """Write every student's documents, the answer key CSV, the combined PDFs and the manifest.
 
-    Layout of *out*: ``students/<safe id>/assignment.pdf`` and ``answers.csv``, ``keys/<safe id>.pdf``,
+    Layout of *out*: ``students/<safe id>/assignment.pdf`` (PDF/UA-1), ``sheet.html`` (the same sheet
+    as HTML) and ``answers.csv``, ``keys/<safe id>.pdf``,
     ``key.csv``, ``keys.json``, ``assignments.pdf``, ``keys.pdf``, ``manifest.json``. Every file is
     written deterministically, so a re-run leaves identical files, and the run's files move in only
     when all are made (`StagedFolder`: a second run on OUT meanwhile is refused). OUT must be empty or
