@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import html
 import math
-import re
 from collections.abc import Mapping
 from dataclasses import dataclass, replace
 
@@ -127,20 +126,13 @@ def _off(r: AnswerResult, unit: str, reveal: bool, hint: str = "direction") -> s
     return f"{'+' if r.error > 0 else '−'}{fmt(r.abs_error)} {unit}"
 
 
-# Each character that Markdown would read as markup, as it shows written: a backslash escape, and a line
-# break as a space (a table row is one line). One `str.translate`, a table cell being the hot spot of a class.
-_MD_TEXT = str.maketrans({"\\": "\\\\", "|": "\\|", "\n": " ", "\r": " ", **{c: "\\" + c for c in "`*_<>[]"}})
-
-
 def md_cell(text: str) -> str:
-    """*text* as inline Markdown that shows as written (a table cell, a heading, a list item)."""
-    return text.translate(_MD_TEXT)
-
-
-# A character `html.escape` writes otherwise: most rows (numbers, units, fixed phrases) have none and are
-# written as they are (Markdown's escapes are one `str.translate` a cell: the keys' "_" and the units' "*" and
-# "[" need them in most rows).
-_HTML_SPECIAL = re.compile(r"[&<>\"']")
+    """*text* as inline Markdown that shows as written (a table cell, a heading, a list item): each
+    character Markdown reads as markup escaped with a backslash, the backslash first, and a line break
+    as a space (a table row is one line)."""
+    return (text.replace("\\", "\\\\").replace("|", "\\|").replace("\n", " ").replace("\r", " ")
+            .replace("`", "\\`").replace("*", "\\*").replace("_", "\\_").replace("<", "\\<").replace(">", "\\>")
+            .replace("[", "\\[").replace("]", "\\]"))
 
 
 def markdown_row(row: FeedbackRow) -> str:
@@ -150,7 +142,7 @@ def markdown_row(row: FeedbackRow) -> str:
 
 def html_row(row: FeedbackRow) -> str:
     """A feedback row as an HTML table row, its class the verdict's."""
-    text = "</td><td>".join(row.cells if not _HTML_SPECIAL.search("".join(row.cells)) else map(html.escape, row.cells))
+    text = "</td><td>".join(map(html.escape, row.cells))
     return f'<tr class="{_CSS_CLASS[row.verdict]}"><td>{text}</td></tr>'
 
 
