@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import csv
 import re
+import shutil
 from pathlib import Path
 
 import pytest
@@ -201,8 +202,11 @@ def _files(folder: Path, keys: bool) -> dict:
 
 
 def test_parallel_run_writes_the_same_files(run, tmp_path):
+    """Two jobs write the same files as one (the course's secret carried over, so the same access codes)."""
     asg, roster, out, _ = run
     other = tmp_path / "out"
+    other.mkdir()
+    shutil.copy(out / "serve.secret", other / "serve.secret")
     generate(asg, roster, other, jobs=2, progress=False)
     assert _files(other, keys=False) == _files(out, keys=False)
     assert set(_files(other, keys=True)) == set(_files(out, keys=True))

@@ -52,10 +52,21 @@ def key_rows(folder: Path, student: str) -> list[dict]:
 
 
 def access_codes(folder: Path) -> dict[str, str]:
-    """Every student's access code, as `gradekit serve-codes` writes them for the instructor."""
+    """Every student's access code as their generated sheet prints it (read back from the PDF), checked
+    against what `gradekit serve-codes` writes for the instructor."""
+    import re
+
+    from pypdf import PdfReader
+
+    printed = {}
+    for pdf in sorted((folder / "gen" / "students").glob("*/assignment.pdf")):
+        text = "".join(page.extract_text() for page in PdfReader(pdf).pages[:1])
+        sid = re.search(r"Student ID:\s*(\S+)", text)[1]
+        printed[sid] = re.search(r"code\s+([0-9A-Z]{5}-[0-9A-Z]{5})", text)[1]
     cli("serve-codes", "--roster", "roster.csv", "--manifest", "gen/manifest.json", "--out", "codes.csv", cwd=folder)
     with open(folder / "codes.csv", newline="", encoding="utf-8") as f:
-        return {r["student_id"]: r["access_code"] for r in csv.DictReader(f)}
+        assert printed == {r["student_id"]: r["access_code"] for r in csv.DictReader(f)}
+    return printed
 
 
 def answers_csv(folder: Path, student: str, values: dict[str, str]) -> str:

@@ -34,6 +34,7 @@ from gradekit.keys import KeyEntry
 from gradekit.report import fmt
 from gradekit.roster import Student, read_roster, safe_names
 from gradekit.sampling import Variant
+from gradekit.web.access import SECRET_FILE, access_code, load_secret
 
 log = logging.getLogger("gradekit")
 
@@ -60,6 +61,7 @@ class _Job:
     out: str
     keys: bool
     students: tuple[str, ...] = ()  # the roster's ids in order: the class a worker draws its variants for
+    secret: str = ""  # the course's secret (hex) that each student's access code of the online page comes from
 
 
 @dataclass
@@ -121,10 +123,13 @@ def generate(
     # it was. The previous run is read under the folder's lock, so no other run changes it meanwhile.
     with StagedFolder(final, LISTING, merge=student is not None) as stage, os_errors(final):
         previous, unlisted = _previous(final, stage, need_manifest=student is not None)
+        # kept in OUT beside the manifest and never listed: a re-run prints the same codes, and the
+        # online page (gradekit serve) checks them with it
+        secret = load_secret(final / "manifest.json", create=True).hex()
         if student is None:
-            summary = _whole_class(asg, Path(assignment), students, stage, jobs, keys, progress)
+            summary = _whole_class(asg, Path(assignment), students, stage, jobs, keys, progress, secret)
         else:
-            summary = _add_student(asg, Path(assignment), by_id[student], stage, previous, keys)
+            summary = _add_student(asg, Path(assignment), by_id[student], stage, previous, keys, secret)
         stage.commit(
             "gradekit generate output; files listed here are rewritten by the next run, others are left alone",
             extra_previous=unlisted,
@@ -136,7 +141,7 @@ def generate(
 
 def _whole_class(
     asg: Assignment, assignment: Path, students: list[Student], stage: StagedFolder, jobs: int, keys: bool,
-    progress: bool,
+    progress: bool, secret: str,
 ) -> GenerateSummary:
     """Every student of the roster, staged: sheets, keys, key.csv, keys.json, manifest, combined PDFs."""
     final, out = stage.out, stage.root
@@ -149,7 +154,7 @@ def _whole_class(
     ids = [s.student_id for s in students]
     class_entries, variants = class_keys(asg, ids)
     redraws = {sid: {label: v.redraw for label, v in per.items()} for sid, per in variants.items()}
-    job = _Job(str(assignment), str(out), keys, tuple(ids))
+    job = _Job(str(assignment), str(out), keys, tuple(ids), secret)
     done: dict[str, _Done] = {}
     work = [(s, names[s.student_id]) for s in students]
     safes = [names[s.student_id] for s in students]
@@ -181,7 +186,8 @@ def _whole_class(
 
 
 def _add_student(
-    asg: Assignment, assignment: Path, s: Student, stage: StagedFolder, previous: dict | None, keys: bool
+    asg: Assignment, assignment: Path, s: Student, stage: StagedFolder, previous: dict | None, keys: bool,
+    secret: str,
 ) -> GenerateSummary:
     """One student added to (or replaced in) the class a previous run wrote into OUT, staged.
 
@@ -215,7 +221,7 @@ def _add_student(
     data["keys"] = {**data.get("keys", {}), "file": frozen.FILE, "sha256": frozen.sha256(frozen_text)}
     names = safe_names(order)
     _folders(out, keys)
-    job = _Job(str(assignment), str(out), keys, (sid,))
+    job = _Job(str(assignment), str(out), keys, (sid,), secret)
     _init(job, asg, {sid: variants})
     done = {sid: _one(s, names[sid])}
     _write_keys(out, entries, frozen_text, data)
@@ -357,7 +363,8 @@ def _previous(out: Path, stage: StagedFolder, need_manifest: bool) -> tuple[dict
         return data, []
     if data is not None:
         return data, _unlisted_outputs(data)
-    others = sorted(p.name for p in out.iterdir() if p != stage.root and p.name != StagedFolder.INCOMPLETE)
+    others = sorted(p.name for p in out.iterdir()  # the course's secret may be carried over to keep the codes
+                    if p != stage.root and p.name not in (StagedFolder.INCOMPLETE, SECRET_FILE))
     if others:
         raise GradekitError(
             f"expected an empty output folder or one gradekit generate wrote before, got a folder of other files "
@@ -468,7 +475,8 @@ def _one(s: Student, safe: str) -> _Done:
         solved.append(Solved(item, v, tuple(scenes), tuple(pics)))
     folder = out / "students" / safe
     folder.mkdir(parents=True, exist_ok=True)
-    ctx = build_context(asg, s, solved, key=False) | {"fonts": _STATE["fonts"]}
+    ctx = build_context(asg, s, solved, key=False) | {
+        "fonts": _STATE["fonts"], "access_code": access_code(bytes.fromhex(job.secret), s.student_id)}
     body = typeset.render("assignment.typ.j2", ctx)
     meta = _metadata(f"{asg.course} {asg.title}: {s.display} ({s.student_id})", asg.course)
     atomic_write(folder / "assignment.pdf", _compiled(comp, meta + body, accessible, asg, s, "sheet", warnings))
