@@ -1,6 +1,5 @@
 """What a worked key's Typst compile spends its work on: the same real keys compiled as they are and
-with one thing changed (tables left out, their computed widths given back to Typst as auto, math as
-text, PDF tags off, figures as empty boxes, ...).
+with one thing changed (tables left out, math as text, PDF tags off, figures as empty boxes, ...).
 
 The bodies are the ones `generate` writes for examples/hw5.yaml (captured from a class of 6, with
 their figures). Each variant compiles one sheet and one key as they are to warm the compiler (fonts), then
@@ -32,20 +31,9 @@ def _as_text(formula: re.Match) -> str:
     return '#"' + formula.group(1).replace('"', "").replace("\\", "") + '"'
 
 
-def _auto(table: re.Match, rows_too: bool = True) -> str:
-    """A table's computed widths (and row heights) given back to Typst as ``auto``: what
-    `gradekit.documents.widths` saves (the ``1fr`` columns stay)."""
-    columns = ", ".join("1fr" if c.strip() == "1fr" else "auto" for c in table.group(1).split(",") if c.strip())
-    return f"columns: ({columns},), rows: {'auto' if rows_too else '(' + table.group(2) + ')'},"
-
-
-_SIZED = re.compile(r"columns: \(([^)]*)\), rows: \(([^)]*)\),")
-
 VARIANTS = {
     "as-is": lambda s: s,
     "no-tables": lambda s: re.sub(r"#table\(", "#let _t = table(", s),
-    "auto-widths-and-rows": lambda s: _SIZED.sub(_auto, s),
-    "auto-widths": lambda s: _SIZED.sub(lambda m: _auto(m, rows_too=False), s),
     "math-as-text": lambda s: re.sub(r"\$([^$]*)\$", _as_text, s),
     "pdf-tags-off": lambda s: s,  # the compile option, below
     "no-header-footer": lambda s: re.sub(r"header: context \{.*?\} \},\n", "", s, flags=re.S).replace(
@@ -64,11 +52,11 @@ def capture(folder: Path) -> None:
 
     compile_pdf = typeset.Compiler.pdf
 
-    def keep(self, source: str) -> bytes:
+    def keep(self, source: str, **options) -> bytes:
         n = len(list(folder.glob("src*.typ")))
         (folder / f"src{n}.typ").write_text(source, encoding="utf-8")
         shutil.copytree(self.root, folder / "root", dirs_exist_ok=True)
-        return compile_pdf(self, source)
+        return compile_pdf(self, source, **options)
 
     typeset.Compiler.pdf = keep
     try:
