@@ -22,10 +22,13 @@ Re-deriving never changes a student's numbers: the sampler reads the problem fil
 from __future__ import annotations
 
 import argparse
+import re
 import sys
 import time
+from dataclasses import replace
 from pathlib import Path
 
+import numpy as np
 import yaml
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -59,9 +62,11 @@ def row(tol, ub: float | None = None, det: float | None = None) -> dict:
     return out
 
 
-def studies(variants: int, students: int, echo=print) -> list[ts.Study]:
+def studies(variants: int, students: int, echo=print, only: tuple[str, ...] = ()) -> list[ts.Study]:
     out = []
     for pid, p in sorted(load_bank().items()):
+        if only and pid not in only:
+            continue
         t = time.perf_counter()
         out.append(ts.simulate(p, variants, students, printed_scale=printed_scale))
         echo(f"  {pid}: {time.perf_counter() - t:.1f} s")
@@ -74,7 +79,7 @@ def table(sts: list[ts.Study], echo=print) -> dict:
     out: dict[str, dict] = {}
     for st in sts:
         rows = out.setdefault(st.problem.id, {})
-        models = ts.basis(st.method)
+        models = st.models
         for key, a in st.answers.items():
             band = st.problem.constraints.bands.get(key)
             if band is None:
@@ -97,14 +102,140 @@ def table(sts: list[ts.Study], echo=print) -> dict:
     return out
 
 
+# --- choosing the bands (--bands): honest work in, 10 % off out -------------------------------
+
+JOINT_MIN = 0.1  # the share of draws the gradability rule may keep at least (else answers go to hand checking)
+
+
+def _relaxed(problem):
+    """*problem* without the draw rules that depend on its bands (gradable, distinguish): the pool of
+    variants the new bands are chosen over, of which the gradability rule then keeps a part."""
+    c = replace(problem.constraints, gradable=1e-9, distinguish=())  # the torque-arm rule stays on
+    return replace(problem, constraints=c, answers=tuple(replace(a, hand_check=False) for a in problem.answers))
+
+
+def choose_bands(st: ts.Study, factor: float, echo=print) -> tuple[dict, set, float]:
+    """Per answer the band `tolerance_study.gradable_band` chooses, the answers left to hand checking
+    (no band admits honest work and rejects 10 % off, or keeping them gradable would reject nearly
+    every draw), and the share of draws the gradability rule keeps."""
+    models = st.models
+    answers = st.answers
+    v = st.variants
+    chosen = {k: ts.gradable_band(a, models, factor) for k, a in answers.items() if a.kind != "angle"}
+    hand = {k for k, g in chosen.items() if g.band is None}
+
+    def per_variant(mask):  # an answer asked in every case holds one block of variants a case
+        return mask.reshape(-1, v).all(axis=0)
+
+    def rows(mask, a):  # a per-variant mask over an answer's rows (its case blocks)
+        return np.tile(mask, len(a.exact) // v)
+
+    def joint(exclude=frozenset()):
+        m = np.ones(v, bool)
+        for k, g in chosen.items():
+            if k not in hand and k not in exclude:
+                m &= per_variant(g.mask)
+        return m
+
+    while joint().mean() < JOINT_MIN:
+        live = [k for k in chosen if k not in hand]
+        if not live:
+            break
+        worst = max(live, key=lambda k: joint(frozenset([k])).mean())
+        echo(f"    {st.problem.id} {worst}: kept gradable in {chosen[worst].mask.mean():.1%} of draws; hand check")
+        hand.add(worst)
+    for _ in range(3):  # no band rejects an honest answer in the draws every answer keeps gradable
+        j = joint()
+        again = False
+        for k, g in list(chosen.items()):
+            if k in hand:
+                continue
+            jr = rows(j, answers[k])
+            kk, _n = ts._honest_ok(answers[k], g.band, models, np.flatnonzero(jr & g.mask))
+            if kk:  # an honest answer rejected among the draws kept: choose again among those
+                chosen[k] = ts.gradable_band(answers[k], models, factor, within=jr)
+                if chosen[k].band is None:
+                    hand.add(k)
+                again = True
+        if not again:
+            break
+    j = joint()
+    for k, a in answers.items():
+        if a.kind == "angle":
+            chosen[k] = ts.gradable_band(a, models, factor, within=rows(j, a))
+            if chosen[k].band is None:
+                hand.add(k)
+    return chosen, hand, float(j.mean())
+
+
+def _band_line(tol) -> str:
+    r = to_row(tol)
+    return "{" + ", ".join(f"{k}: {v:g}" for k, v in r.items() if k != "floor" or v) + "}"
+
+
+def rewrite_problem(problem, chosen: dict, hand: set) -> None:
+    """Write the chosen bands into the file's ``constraints.bands`` block and mark ``hand_check`` answers."""
+    path = Path(problem.path)
+    text = path.read_text(encoding="utf-8")
+    old = problem.constraints.bands
+    lines = []
+    for a in problem.answers:
+        if a.key in (ln.split(":")[0].strip() for ln in lines):
+            continue
+        g = chosen.get(a.key)
+        tol = g.band if g is not None and g.band is not None and a.key not in hand else old.get(a.key)
+        if tol is not None:
+            lines.append(f"    {a.key}: {_band_line(tol)}")
+    block = "  bands:\n" + "\n".join(lines) + "\n"
+    text, n = re.subn(r"  bands:\n(?:    .*\n)+", lambda _m: block, text, count=1)
+    if not n:
+        raise SystemExit(f"{path}: no constraints.bands block to rewrite")
+    for a in problem.answers:
+        pat = re.compile(r"^(  - \{key: " + re.escape(a.key) + r",.*?)(, hand_check: true)?\}$", re.M)
+        mark = ", hand_check: true" if a.key in hand else ""
+        text = pat.sub(lambda m, mark=mark: m.group(1) + mark + "}", text)
+    path.write_text(text, encoding="utf-8")
+
+
+def derive_bands(variants: int, students: int, only: list[str], write: bool, echo=print) -> None:
+    from gradekit.bank.model import Constraints
+
+    factor = Constraints().gradable
+    for pid, p in sorted(load_bank().items()):
+        if only and pid not in only:
+            continue
+        t = time.perf_counter()
+        st = ts.simulate(_relaxed(p), variants, students, printed_scale=printed_scale)
+        chosen, hand, share = choose_bands(st, factor, echo)
+        echo(f"  {pid}: gradable in {share:.1%} of draws, hand check {sorted(hand) or '-'} "
+             f"({time.perf_counter() - t:.1f} s)")
+        for k, g in chosen.items():
+            band = to_row(g.band) if g.band else "HAND"
+            echo(f"      {k:<10} {band}  kept {g.mask.mean():.1%}  ub {100 * g.bound:.3f} %")
+        if write:
+            rewrite_problem(p, chosen, hand)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--variants", type=int, default=500)
     ap.add_argument("--students", type=int, default=10)
+    ap.add_argument("--bands", action="store_true", help="choose each answer's band, write it into its problem file")
+    ap.add_argument("--dry-run", action="store_true", help="with --bands: print the choice only")
+    ap.add_argument("--only", default="", help="comma-separated problem ids (the table: only their rows re-measured)")
     args = ap.parse_args()
     t0 = time.perf_counter()
-    data = table(studies(args.variants, args.students))
+    only = tuple(x for x in args.only.split(",") if x)
+    if args.bands:
+        derive_bands(args.variants, args.students, list(only), not args.dry_run)
+        return
     out = bank_dir() / "_tolerances.yaml"
+    if only:  # those problems' rows measured again; every other row and the per-kind defaults kept
+        data = yaml.safe_load(out.read_text(encoding="utf-8"))
+        fresh = table(studies(args.variants, args.students, only=only))
+        data.update({k: v for k, v in fresh.items() if not k.startswith("_")})
+    else:
+        data = table(studies(args.variants, args.students))
     text = HEADER.format(
         date=time.strftime("%Y-%m-%d"),
         variants=args.variants,

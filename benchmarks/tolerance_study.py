@@ -56,15 +56,14 @@ from gradekit.mechanics.jet import Jet, P
 from gradekit.mechanics.model import GROUND, Linkage, Refusals
 from gradekit.mistakes import mistakes_many
 from gradekit.sampling import sample_many
-from gradekit.tolerances import answer_kind
+from gradekit.tolerances import POLYGON_MM as POLYGON_RANGE
+from gradekit.tolerances import READ_DEG, READ_MM, answer_kind
 
 MODELS = ("sf3", "sf4", "drawing")
 FALSE_REJECT_MAX = 0.001  # the upper bound of the honest false-reject rate must be below this
 CONFIDENCE = 0.95
 DETECT_MIN = 0.99
-READ_MM = 0.5
-READ_DEG = 0.5
-POLYGON_MM = 150.0  # the largest vector of a polygon is drawn between 60 and 150 mm
+POLYGON_MM = POLYGON_RANGE[1]  # the largest vector of a polygon is drawn between 60 and 150 mm (1-2-5 scale)
 REL_GRID = (
     0.001, 0.002, 0.003, 0.005, 0.0075, 0.01, 0.015, 0.02, 0.025, 0.03, 0.04, 0.05, 0.06, 0.075,
     0.1, 0.125, 0.15, 0.2, 0.25, 0.3, 0.4, 0.5, 0.75, 1.0,
@@ -155,7 +154,7 @@ class Model:
 
     @property
     def sig(self) -> int:
-        return 4 if self.name == "sf4" else 3
+        return int(self.name[2:]) if self.name.startswith("sf") else 3
 
     def u(self, half: float | np.ndarray = 1.0) -> np.ndarray:
         return self.rng.uniform(-1.0, 1.0, self.n) * half
@@ -304,6 +303,7 @@ class Study:
     per_variant: int
     answers: dict[str, AnswerData]
     failures: dict[str, int] = field(default_factory=dict)  # model -> students whose solve was refused
+    models: tuple[str, ...] = ()  # the honest models a band must admit (`basis` at the sheet's precision)
 
 
 def merge(a: AnswerData, b: AnswerData) -> AnswerData:
@@ -322,9 +322,11 @@ def merge(a: AnswerData, b: AnswerData) -> AnswerData:
     )
 
 
-def basis(method: str) -> tuple[str, ...]:
-    """The honest models a band must admit: 3 and 4 significant figures, and drawings for graphical problems."""
-    return ("sf3", "sf4", "drawing") if method == "graphical" else ("sf3", "sf4")
+def basis(method: str, sigfigs: int = 3) -> tuple[str, ...]:
+    """The honest models a band must admit: work to the significant figures the sheet asks for
+    (``sigfigs`` of the problem) and one more, and drawings for graphical problems."""
+    sf = (f"sf{sigfigs}", f"sf{sigfigs + 1}")
+    return (*sf, "drawing") if method == "graphical" else sf
 
 
 def _printed(problem: Problem, vb, rows: np.ndarray, printed_scale: Callable | None) -> np.ndarray:
@@ -347,7 +349,9 @@ def simulate(
     without it the drawing uses ``figure.true_scale``. A problem without random parameters has one
     variant and ``n_variants × per_variant`` students of it.
     """
-    models = tuple(m for m in (models or basis(problem.method)) if m != "drawing" or problem.method == "graphical")
+    models = tuple(
+        m for m in (models or basis(problem.method, problem.sigfigs)) if m != "drawing" or problem.method == "graphical"
+    )
     randoms = any(p.random for p in problem.parameters.values())
     seeds = [seed * 1_000_003 + s for s in range(n_variants)] if randoms else [None]
     vb = sample_many(problem, seeds)
@@ -432,7 +436,7 @@ def simulate(
             mist[key],
         )
         answers[spec.key] = merge(answers[spec.key], a) if spec.key in answers else a
-    return Study(problem, problem.method, nv, k, answers, failures)
+    return Study(problem, problem.method, nv, k, answers, failures, models)
 
 
 def _rate_errors(problem: Problem, vb, rows: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
@@ -649,7 +653,11 @@ def kind_defaults(studies: list[Study]) -> dict[tuple[str, str], tuple[Tolerance
         best = None
         for _w, _i, tol in ranked:  # narrowest first: the first honest one is the default
             scores = [evaluate(a, tol, models) for a in answers]
-            ub = max(upper_bound(sum(s.rejected[m] for s in scores), sum(s.samples[m] for s in scores)) for m in models)
+            ub = max(  # per model over the answers it was run on (a problem's sheet names its figures)
+                upper_bound(sum(s.rejected.get(m, 0) for s in scores), sum(s.samples.get(m, 0) for s in scores))
+                for m in models
+                if any(m in s.samples for s in scores)
+            )
             det = float(np.mean([s.worst_detection() for s in scores]))
             if best is None or ub < best[1]:
                 best = (tol, ub, det)
@@ -657,6 +665,82 @@ def kind_defaults(studies: list[Study]) -> dict[tuple[str, str], tuple[Tolerance
                 break
         out[(method, kind)] = best
     return out
+
+
+# --- bands that grade: honest work in, 10 % off out (issue 25) ------------------------------
+
+DISC_REL = (0.005, 0.0075, 0.01, 0.015, 0.02, 0.025, 0.03, 0.04, 0.05, 0.06, 0.07, 0.08, 0.09, 0.095)
+DISC_FLOOR = (0.0, 0.001, 0.002, 0.003, 0.005, 0.0075, 0.01, 0.015, 0.02, 0.03, 0.04, 0.05, 0.06, 0.07, 0.08)
+DISC_DEG = (0.5, 0.75, 1.0, 1.25, 1.5, 2.0, 2.5, 3.0, 3.5, 4.0, 4.5)
+
+
+@dataclass
+class Graded:
+    """The band chosen for one answer under the gradability rule: ``band`` (None: no band admits honest
+    work and rejects 10 % off; the answer is for hand checking), the variants it keeps gradable
+    (``mask``) and its honest bound on them."""
+
+    key: str
+    kind: str
+    band: Tolerance | None
+    mask: np.ndarray  # (V,) variants in which the answer is gradable at this band
+    bound: float
+
+
+def _honest_ok(a: AnswerData, tol: Tolerance, models: tuple[str, ...], rows: np.ndarray) -> tuple[int, int]:
+    """Worst model's (rejected, honest answers) of *tol* over variants *rows* of *a*."""
+    worst = (0, 0)
+    worst_ub = -1.0
+    for m in models:
+        h = a.honest.get(m)
+        if h is None:
+            continue
+        h = h[rows]
+        good = np.isfinite(h)
+        ok = tol.accepts_many(h, a.exact[rows, None], a.scale[rows, None])
+        k, n = int((~ok & good).sum()), int(good.sum())
+        ub = upper_bound(k, n)
+        if ub > worst_ub:
+            worst, worst_ub = (k, n), ub
+    return worst
+
+
+def gradable_band(a: AnswerData, models: tuple[str, ...], factor: float, within: np.ndarray | None = None) -> Graded:
+    """The band for *a* that keeps it gradable in most variants: of the bands no wider than
+    ``1/factor`` of the answer (``Constraints.gradable``: the sampler keeps a variant only where every
+    answer is at least *factor* bands from zero, so an answer 10 % off can never earn credit), the
+    one whose honest false-reject bound over the variants it keeps gradable is below 0.1 %, that
+    rejects no honest answer in the variants *within* (those every other answer keeps), and that keeps
+    the most of those gradable (then the narrowest). Directions: the narrowest band below 5° so honest
+    over every variant and rejecting none within."""
+    v = len(a.exact)
+    within = np.ones(v, bool) if within is None else within
+    if a.kind == "angle":
+        everything = np.arange(v)
+        for d in DISC_DEG:
+            tol = Tolerance("relative", 0.0, d, period=360.0)
+            k, n = _honest_ok(a, tol, models, everything)
+            if upper_bound(k, n) < FALSE_REJECT_MAX and _honest_ok(a, tol, models, np.flatnonzero(within))[0] == 0:
+                return Graded(a.key, a.kind, tol, np.ones(v, bool), upper_bound(k, n))
+        return Graded(a.key, a.kind, None, np.ones(v, bool), 1.0)
+    passing: list[tuple[float, float, Graded]] = []  # (share kept gradable, median width, choice)
+    for rel in DISC_REL:
+        for fl in DISC_FLOOR:
+            tol = Tolerance("relative", rel, 0.0, floor=fl)
+            band = tol.bands(a.exact, a.scale)
+            mask = np.abs(a.exact) >= factor * band
+            if not mask.any():
+                continue
+            k, n = _honest_ok(a, tol, models, np.flatnonzero(mask))
+            ub = upper_bound(k, n)
+            if ub >= FALSE_REJECT_MAX or (k and _honest_ok(a, tol, models, np.flatnonzero(mask & within))[0]):
+                continue
+            passing.append((float((mask & within).mean()), width(a, tol), Graded(a.key, a.kind, tol, mask, ub)))
+    if not passing:
+        return Graded(a.key, a.kind, None, np.ones(v, bool), 1.0)
+    top = max(p[0] for p in passing)
+    # of the bands that keep (nearly) the most variants gradable, the narrowest: it also catches 5 % errors
+    return min((p for p in passing if p[0] >= top - 0.01), key=lambda p: p[1])[2]
 
 
 __all__ = [

@@ -6,23 +6,51 @@ For each variant: it assembles, solves, passes the virtual-work check, stays ins
 conditioning bounds, its key grades itself 100 % and every answer moved just outside its
 tolerance band grades 0. Prints per problem the rejection rate, answer ranges, worst transmission
 angle and condition number, and how many distinct variants a class gets.
+
+Both sides of every automatically graded answer (issue 25; `LEGEND` is printed with the table): the
+honest false-reject bound the study measured (``ub`` of the bank's ``_tolerances.yaml``, written by
+benchmarks/derive_tolerances.py) must be below 0.1 %; an answer 10 % off (a direction 5° off) and each
+catalogued or generic mistake that moves the answer by more than that must lose its credit in at least
+95 % of the variants drawn. A mistake that moves the answer less is reported as too small to grade.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Callable, Iterable
+from pathlib import Path
 
 import numpy as np
 
 from gradekit.answers import published_mismatches
+from gradekit.bank.measured import measured_tolerances
 from gradekit.bank.registry import load_bank
 from gradekit.errors import GradekitError
-from gradekit.keys import Tolerance
+from gradekit.grading.compare import generic_mistakes
+from gradekit.keys import KeyEntry, Tolerance
 from gradekit.mechanics.forces import VW_LIMIT, Conditioning
 from gradekit.mistakes import mistakes_many
 from gradekit.report import fmt
 from gradekit.sampling import class_variants, derive_seed, sample_many, variant
+from gradekit.tolerances import (
+    DISCRIMINATION_MIN,
+    FALSE_REJECT_MAX,
+    OFF_FAR,
+    OFF_NEAR,
+    accepted_off,
+    is_direction,
+    mistake_gradable,
+    mistake_size,
+)
+
+LEGEND = (
+    "    columns: answer | band the grader applies | honest: 95 % upper bound of the honest false-reject rate "
+    "measured by benchmarks/derive_tolerances.py (goal < 0.1 %) | 5%/2°: share of variants where an answer 5 % "
+    "off (a direction 2° off) still earns full credit | 10%/5°: the same 10 % (5°) off (goal ≤ 5 %) | "
+    "mistake: the catalogued or generic mistake that most often still earns full credit, the share of variants "
+    "and its median size (goal: ≤ 5 % of the variants where it moves the answer more than 10 % or 5°; where it "
+    "moves it less it is no error a band must reject) | verdict"
+)
 
 
 def _self_grade_failures(key: str, tol: Tolerance, values: np.ndarray, scales: np.ndarray) -> list[str]:
@@ -82,10 +110,89 @@ def _band_check(problem, a, sel: np.ndarray, found: dict) -> tuple[float, int, i
             int((zero_ok & wider).sum()), other)
 
 
-def check_problem(problem, n: int, class_size: int, echo: Callable[[str], None]) -> bool:
-    """Check *n* variants of one problem (drawn and solved in batches); print its summary; True when all pass."""
+class _Sides:
+    """Both sides of one answer over the variants drawn (cases of one answer pooled)."""
+
+    def __init__(self, key: str, unit: str, band: Tolerance, hand: bool, ub: float | None, measured: bool) -> None:
+        self.key, self.unit, self.band, self.hand, self.ub = key, unit, band, hand, ub
+        self.measured = measured  # the problem's folder holds a measured table (a file of its own may not yet)
+        self.n = 0
+        self.near = self.far = 0
+        self.mistakes: dict[str, list] = {}  # name -> [variants where it applies, accepted, sizes]
+
+    def add(self, a, sel: np.ndarray, found: dict) -> None:
+        tol, vals, sc = a.spec.tolerance, a.value[sel], a.scale[sel]
+        self.n += len(sel)
+        self.near += int(accepted_off(tol, vals, sc, a.unit, OFF_NEAR).sum())
+        self.far += int(accepted_off(tol, vals, sc, a.unit, OFF_FAR).sum())
+        wrong = [(m.name, m.value[sel], m.changed[sel]) for m in found.get(a.key, [])]
+        for mk in generic_mistakes(KeyEntry("", "", a.key, 1.0, a.unit, Tolerance())):
+            if not any(w[0] == mk.name for w in wrong):
+                live = vals != 0 if mk.name == "sign flipped" else np.ones(len(sel), bool)
+                wrong.append((mk.name, vals * mk.value, live))
+        for name, got, live in wrong:
+            live = live & np.isfinite(got)
+            if not live.any():
+                continue
+            ok = tol.accepts_many(got[live], vals[live], sc[live])
+            size = mistake_size(tol, got[live], vals[live], a.unit)
+            big = np.array([mistake_gradable(float(x), a.unit) for x in size], bool)
+            rec = self.mistakes.setdefault(name, [0, 0, [], 0, 0])
+            rec[0] += int(live.sum())
+            rec[1] += int(ok.sum())
+            rec[2].append(size)
+            rec[3] += int(big.sum())  # the variants where the mistake is larger than what a band must reject
+            rec[4] += int((ok & big).sum())
+
+    def mistake_rows(self) -> list[tuple[str, float, float, float]]:
+        """(name, share of variants accepted, median size, share accepted of the variants where it is larger
+        than the 10 % / 5° a band must reject: the goal's; 0 when it is never that large)."""
+        out = []
+        for name, (live, acc, sizes, big, big_acc) in self.mistakes.items():
+            med = float(np.median(np.concatenate(sizes)))
+            out.append((name, acc / live, med, big_acc / big if big else 0.0))
+        return sorted(out, key=lambda r: -r[1])
+
+    def failures(self) -> list[str]:
+        if self.hand:
+            return []
+        bad = []
+        if self.ub is None:
+            if self.measured:  # a measured bank's table without this answer: stale
+                bad.append(f"{self.key}: honest false-reject rate not measured at its band "
+                           "(run benchmarks/derive_tolerances.py)")
+        elif self.ub >= 100 * FALSE_REJECT_MAX:
+            bad.append(f"{self.key}: honest false-reject bound {self.ub:.3f} %, "
+                       f"expected below {100 * FALSE_REJECT_MAX:g} %")
+        if self.far > (1 - DISCRIMINATION_MIN) * self.n:
+            bad.append(f"{self.key}: an answer 10 % (5°) off earns full credit in {self.far / self.n:.1%} of variants, "
+                       f"expected at most {1 - DISCRIMINATION_MIN:.0%}")
+        for name, _share, _med, big_share in self.mistake_rows():
+            if big_share > 1 - DISCRIMINATION_MIN:
+                bad.append(f"{self.key}: mistake {name!r} earns full credit in {big_share:.1%} of the variants where "
+                           f"it moves the answer more than 10 % (5°), expected at most {1 - DISCRIMINATION_MIN:.0%}")
+        return bad
+
+    def row(self) -> str:
+        band = "hand check" if self.hand else self.band.describe()
+        ub = "unmeasured" if self.ub is None else f"{self.ub:.3f} %"
+        rows = self.mistake_rows()
+        worst = next((r for r in rows if r[1] > 0), None)
+        mis = "none passes" if worst is None else f"{worst[0]} {worst[1]:.0%} (size {worst[2]:.3g}" + (
+            "°)" if is_direction(self.unit) else f" = {100 * worst[2]:.3g} %)")
+        verdict = "hand" if self.hand else ("ok" if not self.failures() else "FAIL")
+        return (f"    {self.key:<10} {band:<26} honest {ub:>9}  5%/2° {self.near / max(self.n, 1):6.1%}  "
+                f"10%/5° {self.far / max(self.n, 1):6.1%}  mistake {mis:<44} {verdict}")
+
+
+def check_problem(problem, n: int, class_size: int, echo: Callable[[str], None], legend: bool = True) -> bool:
+    """Check *n* variants of one problem (drawn and solved in batches); print its summary (with the
+    legend of the answers' columns unless *legend* is False); True when all pass."""
     failures: list[str] = []
     wide: dict[str, list] = {}  # answer -> [largest grading/draw band ratio, variants broken, hidden, zero, other]
+    sides: dict[str, _Sides] = {}
+    # the honest side as benchmarks/derive_tolerances.py measured it (a problem not in a measured table: unmeasured)
+    measured = (measured_tolerances(Path(problem.path).parent).get(problem.id) or {}) if problem.path else {}
     randoms = any(p.random for p in problem.parameters.values())
     count = n if randoms else 1
     try:
@@ -116,8 +223,13 @@ def check_problem(problem, n: int, class_size: int, echo: Callable[[str], None])
         failures.extend(f"variant {rows[i]}: condition number above the bound" for i in np.flatnonzero(cond_bad))
         raw = next(r[2] for r in vb.rows if r is not None and r[0] is batch)
         kept = np.isin(np.arange(batch.n), sel)
-        found = mistakes_many(batch, raw, rows=kept) if problem.constraints.distinguish else {}
+        found = mistakes_many(batch, raw, rows=kept)
         for a in batch.answer_list:
+            if a.spec.key not in sides:
+                row = measured.get(a.spec.key)
+                ub = float(row["ub"]) if isinstance(row, dict) and "ub" in row else None
+                sides[a.spec.key] = _Sides(a.spec.key, a.unit, a.spec.tolerance, a.spec.hand_check, ub, bool(measured))
+            sides[a.spec.key].add(a, sel, found)
             units[a.key] = a.unit
             vals = a.value[sel]
             if not np.isfinite(vals).all():
@@ -150,6 +262,8 @@ def check_problem(problem, n: int, class_size: int, echo: Callable[[str], None])
             failures.extend(f"published: {m}" for m in published_mismatches(variant(problem).result))
         except GradekitError as exc:
             failures.append(f"published variant: {exc.format_message()}")
+    for sd in sides.values():
+        failures.extend(sd.failures())
     distinct = 1
     if randoms:
         try:
@@ -169,6 +283,10 @@ def check_problem(problem, n: int, class_size: int, echo: Callable[[str], None])
     )
     for key, (lo, hi) in ranges.items():
         echo(f"    {key:<14} {fmt(lo, 4):>12} .. {fmt(hi, 4):<12} {units.get(key, '')}")
+    if legend:
+        echo(LEGEND)
+    for sd in sides.values():
+        echo(sd.row())
     for key, (ratio, broken, hidden, _zero, _other) in wide.items():
         if ratio:
             costs = [f"the key within {problem.constraints.gradable:g} grading bands of zero in {broken} variants "
@@ -191,7 +309,7 @@ def check_bank(ids: Iterable[str], n: int, class_size: int, bank=None, echo: Cal
     if unknown:
         raise GradekitError(f"expected bank ids ({', '.join(sorted(problems))}), got {', '.join(unknown)}")
     ok = True
-    for pid in ids:
-        ok &= check_problem(problems[pid], n, class_size, echo)
+    for i, pid in enumerate(ids):
+        ok &= check_problem(problems[pid], n, class_size, echo, legend=i == 0)
     echo("bank check: " + ("all problems passed" if ok else "FAILED"))
     return ok

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import hashlib
 import math
+import re
 from collections import Counter
 from dataclasses import dataclass, field
 
@@ -28,9 +29,11 @@ from gradekit.bank.model import Parameter, Problem
 from gradekit.errors import GradekitError, SamplingError
 from gradekit.mechanics.forces import VW_LIMIT
 from gradekit.mechanics.mechanisms import KINDS
+from gradekit.mechanics.model import GROUND, Prismatic
 from gradekit.mistakes import mistakes_many
 from gradekit.parameters import published_values, round_display, sig_round
 from gradekit.pipeline import Result, ResultBatch, solve_many
+from gradekit.tolerances import ARM_MIN
 
 MAX_DRAWS = 400
 ROUND_ROWS = 1024  # candidate rows per batched solve when few seeds are pending (fewer pay its fixed cost for little)
@@ -187,6 +190,43 @@ def _grashof(problem: Problem, full: dict, n: int) -> np.ndarray:
     return bad
 
 
+_DRIVER = re.compile(r"^-?driver(@[^.\s]+)?$")
+
+
+def torque_arms(problem: Problem, batch: ResultBatch) -> dict[str, np.ndarray]:
+    """For each torque answer of a crank-driven problem (``driver`` or a superposition part ``driver@g``),
+    its share of the moment the largest force of its force polygon would have at the crank pin,
+    |T| / (F_max · r): a graphical torque is the pin force's component across the crank, read off that
+    polygon, times the pin radius r (`gradekit.tolerances.ARM_MIN`). A total is the sum of its parts,
+    each read off its own polygon: its share is of the sum of the parts' moments."""
+    out: dict[str, np.ndarray] = {}
+    if problem.driver != "crank":
+        return out
+    lab = problem.label
+    for a in batch.answer_list:
+        m = _DRIVER.match(a.spec.of.replace(" ", ""))
+        if m is None:
+            continue
+        case = next(c for c in batch.cases if c.name == a.case)
+        link = case.solutions.linkage
+        drv = link.driver.body
+        origin = link.bodies[drv].origin
+        revolute = [j for j in link.joints if not isinstance(j, Prismatic)]
+        pins = [j for j in revolute if drv in (j.a, j.b) and GROUND not in (j.a, j.b)]
+        if not pins:
+            continue
+        radius = np.maximum.reduce([np.hypot(j.point.x.v - origin.x.v, j.point.y.v - origin.y.v) for j in pins])
+        parts = [m.group(1)] if m.group(1) else [k[len("driver"):] for k in case.results if k.startswith("driver@")]
+        moment = 0.0
+        for part in parts or [""]:
+            forces = [np.abs(case.results[f"F[{lab(j.a)},{lab(j.b)}]{part}.mag"][0]) for j in revolute]
+            moment = moment + np.maximum.reduce(forces) * radius
+        torque = np.abs(case.results["driver" + (m.group(1) or "")][0])
+        with np.errstate(divide="ignore", invalid="ignore"):
+            out[a.key] = np.where(moment > 0, torque / moment, 1.0)
+    return out
+
+
 def check_many(problem: Problem, values: dict, n: int) -> tuple[np.ndarray, ResultBatch]:
     """Solve a batch of draws and test every constraint.
 
@@ -233,9 +273,14 @@ def check_many(problem: Problem, values: dict, n: int) -> tuple[np.ndarray, Resu
                 dot = crank[0] * rod[0] + crank[1] * rod[1]
                 ang = np.degrees(np.abs(np.arctan2(cross, dot)))
                 reject(ok & (np.minimum(ang, 180 - ang) < c.dead_centre_min), "dead_centre_min")
+        if problem.method == "graphical" and c.gradable:
+            for key, share in torque_arms(problem, batch).items():
+                spec = next(a.spec for a in batch.answer_list if a.key == key)
+                if not spec.hand_check:  # a torque checked by hand is not judged by the rule
+                    reject(ok & (share < ARM_MIN), f"gradable: {key} (pin force nearly along the crank)")
         if c.gradable:
             for a in batch.answer_list:
-                if a.unit != "deg":
+                if a.unit != "deg" and not a.spec.hand_check:
                     reject(ok & (np.abs(a.value) < c.gradable * c.band(a)), f"gradable: {a.key}")
         if c.distinguish:
             found = mistakes_many(batch, values, rows=reasons == None)  # noqa: E711 (the draws not yet rejected)

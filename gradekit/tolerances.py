@@ -11,6 +11,7 @@ small components are judged by the accuracy of the whole construction; angles wr
 from __future__ import annotations
 
 import functools
+import math
 
 from gradekit import quantities, units
 from gradekit.errors import GradekitError
@@ -86,3 +87,57 @@ def defaults() -> dict[tuple[str, str], Tolerance]:
 def default(method: str, of: str, unit: str) -> Tolerance:
     """The measured default for an answer of *method* asking for *of* in *unit*."""
     return defaults()[(method, answer_kind(of, unit))]
+
+
+# --- discrimination: what a band lets through -------------------------------------------------
+
+OFF_FAR = (0.10, 5.0)  # an answer 10 % off (a direction 5° off) must lose its credit (issue 25)
+OFF_NEAR = (0.05, 2.0)  # reported beside it: 5 % off (a direction 2° off)
+DISCRIMINATION_MIN = 0.95  # share of variants in which an answer OFF_FAR off (or a catalogued mistake) is rejected
+FALSE_REJECT_MAX = 0.001  # the 95 % upper bound of the honest false-reject rate must be below this
+
+# The accuracy of graphical work the bands assume (benchmarks/tolerance_study.py's drawing model), printed on
+# the sheets of graphical problems: lengths laid off and read to READ_MM on paper, directions to READ_DEG, every
+# polygon drawn with its largest vector POLYGON_MM long (the 1-2-5 scale that fits).
+READ_MM = 0.5
+READ_DEG = 0.5
+POLYGON_MM = (60.0, 150.0)
+# A graphical torque is the pin force's component across the crank, read off the polygon, times the crank
+# radius: its reading error is READ_MM at the polygon's scale plus the pin force times READ_DEG. Where the
+# component is under ARM_MIN of the polygon's largest force, that error alone exceeds a third of the 10 % a
+# band must reject (the rest is the construction's: points and lines of action taken off the sheet): a force
+# polygon whose sides are nearly parallel to the crank. Such a variant is not drawn.
+ARM_MIN = (READ_MM / POLYGON_MM[0] + math.radians(READ_DEG)) / (OFF_FAR[0] / 3)
+
+
+def is_direction(unit: str) -> bool:
+    """An answer in degrees is a direction (an angle wrapped at 360°): it is moved by degrees, not by a share."""
+    return units.si_unit(unit) == units.si_unit("deg")
+
+
+def off_by(values, unit: str, off: tuple[float, float]):
+    """*values* moved by ``off`` = (relative share, degrees): a direction by the degrees, anything else by the share."""
+    import numpy as np
+
+    v = np.asarray(values, float)
+    return v + off[1] if is_direction(unit) else v * (1.0 + off[0])
+
+
+def accepted_off(tol: Tolerance, values, scales, unit: str, off: tuple[float, float]):
+    """Per variant: would an answer ``off`` away from its key (`off_by`) still earn full credit under *tol*?"""
+    return tol.accepts_many(off_by(values, unit, off), values, scales)
+
+
+def mistake_size(tol: Tolerance, got, values, unit: str):
+    """How far a mistake moves each answer: degrees for a direction, else a share of the answer."""
+    import numpy as np
+
+    d = np.abs(tol.difference(np.asarray(got, float), np.asarray(values, float)))
+    return d if is_direction(unit) else d / np.maximum(np.abs(np.asarray(values, float)), 1e-300)
+
+
+def mistake_gradable(median_size: float, unit: str) -> bool:
+    """A mistake a band must catch: one that moves the answer (in the median variant) by more than the
+    10 % (5°) an answer may be off and still lose its credit. A smaller one is no mistake a grade can see
+    apart from honest work, and is reported with its size instead."""
+    return median_size > (OFF_FAR[1] if is_direction(unit) else OFF_FAR[0])

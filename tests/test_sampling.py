@@ -128,4 +128,4 @@ def test_a_gradable_failure_names_the_answer_too_small_to_grade(tmp_path):
     f.write_text(text, encoding="utf-8")
     with pytest.raises(SamplingError) as err:
         variant(load_problem(f), course="MEG373", salt="t", student="1", max_draws=5)
-    assert "constraint 'gradable: F03'" in err.value.format_message()
+    assert "constraint 'gradable: F23'" in err.value.format_message()  # F03 and T are checked by hand

@@ -12,6 +12,7 @@ from gradekit.bank import expr
 from gradekit.keys import Tolerance
 from gradekit.mechanics.mechanisms import ANGLE_PARAMS as MECHANISM_ANGLES
 from gradekit.mechanics.mechanisms import KINDS
+from gradekit.tolerances import OFF_FAR
 
 Value = float | str  # a literal number (in the problem's default unit) or a parameter/expression
 
@@ -61,6 +62,7 @@ LOAD_KEYS = {
     "rotary_damper": ("link", "relative_to", "c"),
     "resistance": ("at", "magnitude"),
 }
+GRADABLE = 1.05 / OFF_FAR[0]  # the default of constraints.gradable: bands at most 1/10.5 of the answer
 ANGLE_PARAMS = MECHANISM_ANGLES  # the registry's angle parameters (gradekit.mechanics.mechanisms)
 SHOW = {"dimensions", "loads", "com", "accelerations", "velocities", "angles", "torque", "labels"}
 METHODS = ("analytical", "graphical")
@@ -147,6 +149,9 @@ class AnswerSpec:
     tolerance: Tolerance = Tolerance()
     case: str | None = None
     tolerance_explicit: bool = False  # given in the file (else: the measured or per-kind default)
+    # checked by hand, not graded automatically: no band both admits honest work and rejects an answer
+    # 10 % off (benchmarks/RESULTS.md says why for each such answer)
+    hand_check: bool = False
 
 
 @dataclass(frozen=True)
@@ -173,7 +178,9 @@ class Constraints:
     dead_centre_min: float = 0.0
     answer_min_fraction: float = 0.0
     require: tuple[tuple[str, str], ...] = ()
-    gradable: float = 2.0  # every non-angle answer at least this many bands from zero
+    # every non-angle answer at least this many bands from zero: a band under 1/10.5 of the answer never
+    # admits an answer 10 % off (issue 25); an answer is gradable in a variant only where its honest band is that narrow
+    gradable: float = GRADABLE
     distinguish: tuple[tuple[str, tuple[str, ...]], ...] = ()  # (mistake, answer keys)
     distinguish_factor: float = 2.0
     bands: dict[str, Tolerance] = field(default_factory=dict)  # answer key -> band draws are judged by
@@ -235,6 +242,7 @@ class Problem:
     defined_points: dict[str, PointSpec] = field(default_factory=dict)  # solver name ("+P") -> definition
     angle_range: tuple[float, float] = (0.0, 360.0)
     field_lines: dict[str, int] = field(default_factory=dict, compare=False)  # "loads[0].c" -> line
+    sigfigs: int = 3  # the significant figures the statement asks every written value to (the honest model's)
 
     def label(self, body: str) -> str:
         return self.labels.get(body, body)

@@ -21,6 +21,7 @@ from gradekit.bank.model import (
     ANALYSES,
     DEFINED,
     DIMENSIONS,
+    GRADABLE,
     LOAD_KEYS,
     LOAD_TYPES,
     METHODS,
@@ -315,6 +316,7 @@ TOP_OPTIONAL = (
     "notes",
     "origin",
     "angle_range",
+    "sigfigs",
 )
 
 
@@ -424,6 +426,11 @@ def validate(data: dict, path: str) -> Problem:
     if not isinstance(notes, str):
         c.err(data, "notes", "notes", f"expected text, got {_show(notes)}")
         notes = ""
+    sigfigs = data.get("sigfigs", 3)
+    if not isinstance(sigfigs, int) or isinstance(sigfigs, bool) or not 2 <= sigfigs <= 6:
+        c.err(data, "sigfigs", "sigfigs", f"expected a whole number of significant figures from 2 to 6, "
+              f"got {_show(sigfigs)}")
+        sigfigs = 3
     if c.errors:
         raise ErrorList(c.errors)
     lines = {k: data.lines.get(k, 0) for k in data} if isinstance(data, LineDict) else {}
@@ -460,6 +467,7 @@ def validate(data: dict, path: str) -> Problem:
         defined,
         angle_range,
         _field_lines(data),
+        sigfigs,
     )
 
 
@@ -879,7 +887,7 @@ def _constraints(c: _Collector, data: dict, names: set[str]) -> Constraints:
         c.number(m, "dead_centre_min", "constraints.dead_centre_min", 0.0) or 0.0,
         c.number(m, "answer_min_fraction", "constraints.answer_min_fraction", 0.0) or 0.0,
         tuple(req),
-        c.number(m, "gradable", "constraints.gradable", 2.0) or 0.0,
+        c.number(m, "gradable", "constraints.gradable", GRADABLE) or 0.0,
         tuple(distinguish),
         c.number(m, "distinguish_factor", "constraints.distinguish_factor", 2.0, positive=True) or 2.0,
         bands,
@@ -921,7 +929,8 @@ def _answers(c: _Collector, data: dict, method: str, cases: dict) -> tuple[Answe
     keys: set[str] = set()
     for i, item in enumerate(node):
         w = f"answers[{i}]"
-        m = c.mapping(item, w, ("key", "of", "unit", "description"), ("sign", "points", "tolerance", "case"), node, i)
+        optional = ("sign", "points", "tolerance", "case", "hand_check")
+        m = c.mapping(item, w, ("key", "of", "unit", "description"), optional, node, i)
         if m is None:
             continue
         key = m.get("key")
@@ -974,6 +983,10 @@ def _answers(c: _Collector, data: dict, method: str, cases: dict) -> tuple[Answe
         except GradekitError:  # the unreadable unit is reported by c.unit above
             base = Tolerance()
         tol = _tolerance(c, m.get("tolerance"), f"{w}.tolerance", base, m)
+        hand = m.get("hand_check", False)
+        if not isinstance(hand, bool):
+            c.err(m, "hand_check", f"{w}.hand_check", f"expected true or false, got {_show(hand)}")
+            hand = False
         out.append(
             AnswerSpec(
                 key,
@@ -985,6 +998,7 @@ def _answers(c: _Collector, data: dict, method: str, cases: dict) -> tuple[Answe
                 tol,
                 None if case is None else str(case),
                 "tolerance" in m,
+                hand,
             )
         )
     return tuple(out)
