@@ -38,6 +38,7 @@ from gradekit.tolerances import (
     OFF_FAR,
     OFF_NEAR,
     accepted_off,
+    band_text,
     is_direction,
     mistake_gradable,
     mistake_size,
@@ -174,14 +175,14 @@ class _Sides:
         return bad
 
     def row(self) -> str:
-        band = "hand check" if self.hand else self.band.describe()
+        band = "hand check" if self.hand else band_text(self.band)
         ub = "unmeasured" if self.ub is None else f"{self.ub:.3f} %"
         rows = self.mistake_rows()
         worst = next((r for r in rows if r[1] > 0), None)
         mis = "none passes" if worst is None else f"{worst[0]} {worst[1]:.0%} (size {worst[2]:.3g}" + (
             "°)" if is_direction(self.unit) else f" = {100 * worst[2]:.3g} %)")
         verdict = "hand" if self.hand else ("ok" if not self.failures() else "FAIL")
-        return (f"    {self.key:<10} {band:<26} honest {ub:>9}  5%/2° {self.near / max(self.n, 1):6.1%}  "
+        return (f"    {self.key:<10} {band:<34} honest {ub:>9}  5%/2° {self.near / max(self.n, 1):6.1%}  "
                 f"10%/5° {self.far / max(self.n, 1):6.1%}  mistake {mis:<44} {verdict}")
 
 

@@ -141,3 +141,15 @@ def mistake_gradable(median_size: float, unit: str) -> bool:
     10 % (5°) an answer may be off and still lose its credit. A smaller one is no mistake a grade can see
     apart from honest work, and is reported with its size instead."""
     return median_size > (OFF_FAR[1] if is_direction(unit) else OFF_FAR[0])
+
+
+def band_text(tol: Tolerance) -> str:
+    """A band as a report prints it: ``±2 %, floor 3 % of scale, at least ±0.5`` or ``±1.5°``."""
+    if tol.period:
+        return f"±{tol.abs:g}°"
+    parts = [f"±{100 * tol.rel:g} %"] if tol.rel else []
+    if tol.floor:
+        parts.append(f"floor {100 * tol.floor:g} % of scale")
+    if tol.abs:
+        parts.append(f"at least ±{tol.abs:g}")
+    return ", ".join(parts) or "0"
