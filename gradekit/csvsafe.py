@@ -238,28 +238,41 @@ class StagedFolder:
         self.listing = listing
         self.merge = merge  # keep the previous run's files (a partial re-run)
         self.removed: list[Path] = []
+        self._made = False
+        self._lock = None
+
+    def __enter__(self) -> StagedFolder:
+        """OUT made and locked, stale staging folders removed, this run's staging folder made. Done
+        here, not in the constructor: a Ctrl-C that arrives once the folder exists is then inside the
+        ``with`` block, whose exit removes it."""
         made = not os.path.lexists(self.out)
         with os_errors(self.out):
             self.out.mkdir(parents=True, exist_ok=True)
         self._made = made
         self._lock = _lock(self.out)
+        root = None
         try:
-            self.removed = self._remove_stale()
+            with _SigintHeld():  # a Ctrl-C while the staging folder is made arrives below, with `root` known
+                self.removed = self._remove_stale()
+                root = self._make_root()
             if self.removed:
                 names = ", ".join(p.name for p in self.removed)
                 log.warning("warning: removed %d staging folder(s) an interrupted run left in %s: %s",
                             len(self.removed), self.out, names)
-            self.root = self._make_root()
+            self.root = root
         except BaseException:
+            if root is not None:
+                shutil.rmtree(root, ignore_errors=True)
             self._release()
             raise
-
-    def __enter__(self) -> StagedFolder:
         return self
 
     def __exit__(self, exc_type, exc, tb) -> None:
-        shutil.rmtree(self.root, ignore_errors=True)
-        self._release()
+        # a Ctrl-C held back until now (by `commit`) must not cut the clean-up short; one that still
+        # arrives first leaves the staging folder to the next run, which removes it
+        with _SigintHeld():
+            shutil.rmtree(self.root, ignore_errors=True)
+            self._release()
 
     def _release(self) -> None:
         """Give the folder back: OUT goes again when this run made it and left nothing in it."""

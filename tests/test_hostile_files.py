@@ -289,7 +289,7 @@ def test_a_second_run_on_a_folder_in_use_is_refused_and_a_killed_run_leaves_no_l
     holder = subprocess.Popen(
         [sys.executable, "-c", "import sys, time\nfrom gradekit.csvsafe import StagedFolder\n"
          "for out in sys.argv[1:]:\n"
-         "    s = StagedFolder(out, '.listing')\n    (s.root / 'half.pdf').write_text('x')\n"
+         "    s = StagedFolder(out, '.listing').__enter__()\n    (s.root / 'half.pdf').write_text('x')\n"
          "    print(s.root, flush=True)\n"
          "time.sleep(120)\n", str(out), str(graded)],
         stdout=subprocess.PIPE, text=True,

@@ -123,9 +123,11 @@ def generate(
     # it was. The previous run is read under the folder's lock, so no other run changes it meanwhile.
     with StagedFolder(final, LISTING, merge=student is not None) as stage, os_errors(final):
         previous, unlisted = _previous(final, stage, need_manifest=student is not None)
-        # kept in OUT beside the manifest and never listed: a re-run prints the same codes, and the
-        # online page (gradekit serve) checks them with it
-        secret = load_secret(final / "manifest.json", create=True).hex()
+        # the course's secret, beside the manifest: made with the first run's files (so a failed run leaves
+        # none) and kept by every later one, so a re-run prints the same codes and the online page
+        # (gradekit serve) checks them with it
+        where = final if (final / SECRET_FILE).exists() else stage.root
+        secret = load_secret(where / "manifest.json", create=True).hex()
         if student is None:
             summary = _whole_class(asg, Path(assignment), students, stage, jobs, keys, progress, secret)
         else:
@@ -133,7 +135,7 @@ def generate(
         stage.commit(
             "gradekit generate output; files listed here are rewritten by the next run, others are left alone",
             extra_previous=unlisted,
-            retain=() if keys else ("keys/", "keys.pdf"),
+            retain=(SECRET_FILE,) if keys else (SECRET_FILE, "keys/", "keys.pdf"),
         )
     summary.seconds = time.perf_counter() - t0
     return summary
