@@ -11,7 +11,6 @@ printed sheet, 95 % bound) is the slow test at the end.
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -212,17 +211,17 @@ def test_hand_check_must_be_true_or_false(tmp_path):
 
 @pytest.mark.slow
 @pytest.mark.parametrize("pid", IDS)
-def test_the_honest_study_stays_below_a_tenth_of_a_percent(pid):
+def test_the_honest_study_stays_below_a_tenth_of_a_percent(pid, monkeypatch):
     """The full honest-student study (benchmarks/tolerance_study.py: every given value and intermediate
     to the sheet's figures and one more, and the drawing on the printed sheet for graphical problems):
     every automatically graded answer's 95 % upper bound of the false-reject rate is below 0.1 %."""
-    sys.path.insert(0, str(ROOT / "benchmarks"))
+    monkeypatch.syspath_prepend(str(ROOT / "benchmarks"))  # the study lives with the benchmarks; restored after
     import tolerance_study as ts
 
     from gradekit.figures.assignment import printed_scale
 
     p = BANK[pid]
-    st = ts.simulate(p, 500, 10, printed_scale=printed_scale)
+    st = ts.simulate(p, 500, 20, printed_scale=printed_scale)  # as the table (derive_tolerances) measures
     specs = {a.key: a for a in p.answers}
     for key, a in st.answers.items():
         if specs[key].hand_check:
