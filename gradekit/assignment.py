@@ -327,11 +327,12 @@ def keys_for(asg: Assignment, item: Item, student_id: str, v: Variant, with_mist
     answers = v.result.answers
     shares = split_points(item.points, [a.points for a in answers], item.points_step)
     mistakes = catalogued_mistakes(v) if with_mistakes else {}
+    specs = {spec.key: spec for spec in item.problem.answers}
     out = []
     for i, a in enumerate(answers):
+        spec = specs[a.base_key]
         override = item.tolerances.get(a.base_key) or item.tolerance
         if override:  # the instructor's fields over the answer's own (measured) tolerance
-            spec = next(s for s in item.problem.answers if s.key == a.base_key)
             tol = replace(spec.tolerance, **override).resolve(a.scale)
         else:
             tol = a.tolerance
@@ -347,6 +348,7 @@ def keys_for(asg: Assignment, item: Item, student_id: str, v: Variant, with_mist
                 a.description,
                 a.sign,
                 tuple(mistakes.get(a.key, ())),
+                spec.hand_check,
             )
         )
     return _distinct_mistakes(out)

@@ -9,7 +9,8 @@ Layout (compact: what is the same for the whole class is written once per answer
 
     {"format": 1, "gradekit": "0.1.0",
      "answers": {"p1.T": {"problem": "p1", "unit": "N*m", "points": 2, "description": …,
-                          "sign": …, "tolerance": {"mode", "rel", "sigfigs", "floor", "period"}}},
+                          "sign": …, "tolerance": {"mode", "rel", "sigfigs", "floor", "period"},
+                          "hand_check": true (only where the bank marks the answer for hand checking)}},
      "mistakes": {"static-answer": "a static answer to a dynamic problem (inertia left out)"},
      "students": {"1001": {"p1.T": [value, tolerance abs, [[mistake, value], …]]}}}
 """
@@ -48,6 +49,7 @@ def dumps(keys: Iterable[KeyEntry]) -> str:
                 "description": e.description,
                 "sign": e.sign_convention,
                 "tolerance": {"mode": t.mode, "rel": t.rel, "sigfigs": t.sigfigs, "floor": t.floor, "period": t.period},
+                **({"hand_check": True} if e.hand_check else {}),
             },
         )
         for m in e.mistakes:
@@ -81,12 +83,13 @@ def loads(text: str | bytes, path: str) -> dict[str, list[KeyEntry]]:
         for sid, rows in students.items():
             entries = []
             for key, (value, tol_abs, found) in rows.items():
-                problem, tolerance, tolerances, (unit, points, description, sign) = shared[key]
+                problem, tolerance, tolerances, (unit, points, description, sign, hand) = shared[key]
                 tol = tolerances.get(tol_abs)
                 if tol is None:
                     tol = tolerances[tol_abs] = tolerance(tol_abs)
                 mistakes = tuple([Mistake(name, names[name], v) for name, v in found]) if found else ()
-                entries.append(KeyEntry(sid, problem, key, value, unit, tol, points, description, sign, mistakes))
+                entries.append(KeyEntry(sid, problem, key, value, unit, tol, points, description, sign, mistakes,
+                                        hand))
                 numbers.append(value)
                 floors.append(tol_abs)
                 numbers.extend([v for _, v in found])
@@ -125,7 +128,8 @@ def _shared(key: str, a: dict) -> tuple:
     def tolerance(floor_abs: float) -> Tolerance:
         return Tolerance(t["mode"], rel, floor_abs, sigfigs=int(sigfigs), floor=floor, period=period)
 
-    fields = (str(a["unit"]), _nonnegative(a["points"], f"{key} points"), str(a["description"]), str(a["sign"]))
+    fields = (str(a["unit"]), _nonnegative(a["points"], f"{key} points"), str(a["description"]), str(a["sign"]),
+              a.get("hand_check", False) is True)
     return str(a["problem"]), tolerance, {}, fields
 
 

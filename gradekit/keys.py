@@ -163,3 +163,6 @@ class KeyEntry(NamedTuple):
     description: str = ""
     sign_convention: str = ""
     mistakes: tuple[Mistake, ...] = ()
+    # no band both admits honest work and rejects an answer 10 % off (benchmarks/RESULTS.md,
+    # "Discrimination"): the instructor checks it, the grader only reads it
+    hand_check: bool = False

@@ -87,7 +87,9 @@ def quiz_variants(asg: Assignment, n: int) -> list[list[QuizVariant]]:
             if values in seen:
                 continue
             seen.add(values)
-            entries = tuple(keys_for(asg, item, quiz_student(k), v, with_mistakes=False))
+            # an answer the bank marks for hand checking has no band that grades it: not in the pool
+            entries = tuple(e for e in keys_for(asg, item, quiz_student(k), v, with_mistakes=False)
+                            if not e.hand_check)
             variants.append(QuizVariant(item.label, item.problem.title, k, render_statement(v.problem, v.result.values),
                                         _pictures(v.result, f"{item.label}-v{k}"), entries))
         out.append(variants)

@@ -260,3 +260,34 @@ def test_grade_ends_with_what_needs_attention_and_strict_exits_non_zero(course, 
     strict = CliRunner().invoke(main, args)
     assert strict.exit_code == 1 and "--strict" in strict.output.splitlines()[-1]
     assert (tmp_path / "strict" / "grades.csv").exists()
+
+
+def test_answers_the_bank_marks_for_hand_checking_are_read_never_judged(tmp_path):
+    """An answer no band can grade (`hand_check: true` in the bank, issue 25) is neither passed nor failed:
+    its points leave the automatic score, the feedback says the instructor checks it, and the worked
+    key's tolerance column says so too."""
+    import gradekit
+
+    asg_file = tmp_path / "hw.yaml"
+    asg_file.write_text('title: "HW"\ncourse: MEG373\nsalt: "hand"\nproblems:\n  - {id: ch5-ex5-1, points: 10}\n',
+                        encoding="utf-8")
+    by_hand = {f"p1.{a.key}" for a in gradekit.load_problem("ch5-ex5-1").answers if a.hand_check}
+    assert by_hand  # the bank marks some: else this test tests nothing
+    (tmp_path / "roster.csv").write_text("student_id,name\n1001,Ada\n", encoding="utf-8")
+    keys = _generate(asg_file, ["1001"], tmp_path / "gen")
+    subs = tmp_path / "subs"
+    subs.mkdir()
+    rows = [f"1001,{e.key},{(e.value * 7 if e.key in by_hand else e.value)!r},{e.unit}" for e in keys]
+    (subs / "1001.csv").write_text("\n".join(["student_id,key,value,unit", *rows]) + "\n", encoding="utf-8")
+    result = CliRunner().invoke(main, ["grade", str(asg_file), "--roster", str(tmp_path / "roster.csv"),
+                                       "--submissions", str(subs), "--out", str(tmp_path / "out"), "--manifest",
+                                       str(tmp_path / "gen" / "manifest.json")])
+    assert result.exit_code == 0, result.output
+    with open(tmp_path / "out" / "grades.csv", newline="", encoding="utf-8") as f:
+        row = next(csv.DictReader(f))
+    assert float(row["max"]) == pytest.approx(sum(e.points for e in keys if e.key not in by_hand))
+    assert float(row["percent"]) == 100.0
+    feedback = (tmp_path / "out" / "feedback" / "1001.md").read_text(encoding="utf-8").replace("\\", "")
+    for key in by_hand:
+        line = next(x for x in feedback.splitlines() if x.startswith(f"| {key} |"))
+        assert "| checked by hand |" in line and "by hand, of" in line

@@ -11,7 +11,7 @@ from click.testing import CliRunner
 from gradekit.assignment import keys_for, load_assignment, student_variant
 from gradekit.cli import main
 
-HEAD = "title: HW 5\ncourse: MEG373\nsalt: wiring\nproblems:\n  - {id: ch5-ex5-1, points: 10}\n"
+HEAD = "title: HW 5\ncourse: MEG373\nsalt: wiring\nproblems:\n  - {id: ch5-ex5-3, points: 10}\n"  # (no hand check)
 ROSTER = ('Student,ID,SIS User ID,SIS Login ID,Section,HW 4 (311),HW 5 (312)\n'
           '    Points Possible,,,,,10,10\n'
           '"de Vries, Lars",4242,1001,lvries,A,8,\n"Haile, Selam",4243,1002,shaile,A,9,\n')

@@ -195,7 +195,9 @@ def _worked(res: Result, entries, key_pictures) -> dict:
         scale[u] = max(scale.get(u, 0.0), abs(units.convert(a.scale, units.si_unit(u), u)))
     answers = [{"key": e.key, "description": e.description,
                 "value": num(0.0 if abs(e.value) <= 1e-12 * scale[e.unit] else e.value, 5), "unit": e.unit,
-                "sign": e.sign_convention, "tolerance": e.tolerance.describe(), "points": num(e.points, 4)}
+                "sign": e.sign_convention, "points": num(e.points, 4),
+                # an answer no band can grade (the bank's hand_check) is marked for the instructor to check
+                "tolerance": "checked by hand" if e.hand_check else e.tolerance.describe()}
                for e in entries]
     given_table = table(
         [[Typ("Symbol"), Typ("Description"), Typ("Value")]]

@@ -17,6 +17,9 @@ from gradekit.units import factor
 
 _DEG = 180.0 / math.pi
 
+HAND_CHECK = "checked by hand by your instructor"
+"""The message of an answer the bank marks for hand checking (`KeyEntry.hand_check`)."""
+
 METHOD_MISTAKES = frozenset({"static-answer", "no-inertia-torque", "no-gravity"})
 """Catalogued mistakes of method, which feedback without ``--reveal`` may name.
 
@@ -251,7 +254,8 @@ def _results(cells: _Cells, partial: Mapping[str, PartialCredit]) -> list[Answer
     keys = np.array([e.value for e in entries], float)
     tolerances = _tolerances(entries)
     rel, abs_, sig, period = tolerances
-    correct = within(values, keys, rel, abs_, sig, period).tolist()
+    hand = [e.hand_check for e in entries]
+    correct = (within(values, keys, rel, abs_, sig, period) & ~np.array(hand, bool)).tolist()
     share = [0.0] * len(entries)
     if partial:
         rules = [partial.get(e.problem) for e in entries]
@@ -264,7 +268,7 @@ def _results(cells: _Cells, partial: Mapping[str, PartialCredit]) -> list[Answer
     error = wrapped(wrapped(values - keys, period), turn)
     with np.errstate(divide="ignore", invalid="ignore"):  # |x − v| / |v|: a share only for a value v ≠ 0, no angle
         relative = np.where((keys != 0) & (period == 0) & (turn == 0), np.abs(error) / np.abs(keys), np.nan).tolist()
-    wrong = [i for i, ok in enumerate(correct) if not ok and math.isfinite(cells.values[i])]
+    wrong = [i for i, ok in enumerate(correct) if not ok and not hand[i] and math.isfinite(cells.values[i])]
     at_wrong = tuple(t[wrong] for t in tolerances)
     diagnosed = dict(zip(wrong, _diagnoses([entries[i] for i in wrong], values[wrong], at_wrong), strict=True))
     out = []
@@ -276,6 +280,9 @@ def _results(cells: _Cells, partial: Mapping[str, PartialCredit]) -> list[Answer
             continue
         if rel_error != rel_error:
             rel_error = None
+        if hand[i]:  # read and shown, never judged: the instructor checks it
+            out.append(AnswerResult(e, answer, value, False, 0.0, None, None, message=HAND_CHECK, band=bands[i]))
+            continue
         if correct[i]:
             out.append(AnswerResult(e, answer, value, True, e.points, rel_error, abs(err), None, "", err,
                                     band=bands[i]))
@@ -377,10 +384,13 @@ def _grade(student: Student, submission: Submission | None, results: list[Answer
 
 def problem_scores(results: Sequence[AnswerResult]) -> tuple[ProblemScore, ...]:
     """Points earned and available per problem (in the order the problems first appear): the sum of
-    the points of its answers' verdicts."""
+    the points of its answers' verdicts; an answer checked by hand counts in neither until the
+    instructor adds it."""
     problems: dict[str, list[float]] = {}
     for result in results:
         earned_max = problems.setdefault(result.entry.problem, [0.0, 0.0])
+        if result.entry.hand_check:
+            continue
         earned_max[0] += result.points
         earned_max[1] += result.entry.points
     return tuple(ProblemScore(p, pts, mx) for p, (pts, mx) in problems.items())

@@ -5,7 +5,8 @@ from __future__ import annotations
 import html
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass, replace
+from dataclasses import replace
+from typing import NamedTuple
 
 from gradekit.grading.compare import AnswerResult, StudentGrade
 from gradekit.grading.lms import submitted_name
@@ -33,11 +34,10 @@ HINTS = ("direction", "band")  # what feedback without --reveal says about a wro
 
 COLUMNS = ("Answer", "You wrote", "Read as", "Verdict", "Off by", "Likely mistake", "Points")
 _CSS_CLASS = {"right": "right", "wrong": "wrong", "not graded": "not", "carried forward": "carried",
-              "partial credit": "partial"}
+              "partial credit": "partial", "checked by hand": "not"}
 
 
-@dataclass(frozen=True)
-class FeedbackRow:
+class FeedbackRow(NamedTuple):
     """One answer's feedback row as plain text: its cells in `COLUMNS` order (then the correct
     answer with --reveal) and its verdict (``right``, ``wrong``, ``not graded``, ``carried
     forward``). Markdown and HTML escape the same cells."""
@@ -60,7 +60,9 @@ def feedback_row(r: AnswerResult, reveal: bool, hint: str = "direction") -> Feed
             parsed += f" = {fmt(r.value, 6)} {unit}"
     else:
         parsed = r.message
-    if r.correct:
+    if entry.hand_check:
+        verdict = "checked by hand"
+    elif r.correct:
         verdict = "right"
     elif r.value is None:
         verdict = "not graded"
@@ -78,7 +80,8 @@ def feedback_row(r: AnswerResult, reveal: bool, hint: str = "direction") -> Feed
         diagnosis = _likely(r, reveal, verdict == "wrong")
     worth = fmt(entry.points)  # an answer's points, and what a right one earned
     earned = worth if r.points == entry.points else fmt(r.points)
-    cells = (entry.key, read, parsed, verdict, off, diagnosis, f"{earned}/{worth}")
+    points = f"by hand, of {worth}" if entry.hand_check else f"{earned}/{worth}"
+    cells = (entry.key, read, parsed, verdict, off, diagnosis, points)
     if reveal:
         cells += (f"{fmt(entry.value, 6)} {unit} ({entry.tolerance.describe()})",)
     return FeedbackRow(cells, verdict)
