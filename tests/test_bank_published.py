@@ -12,6 +12,7 @@ from __future__ import annotations
 import math
 
 import pytest
+from quick import bank_params
 
 from gradekit import units
 from gradekit.bank.registry import load_bank
@@ -109,7 +110,7 @@ def test_published_value_at_its_printed_precision(pid, key):
     assert abs(got - value) <= half, (source, got)
 
 
-@pytest.mark.parametrize("pid", sorted(BANK))
+@pytest.mark.parametrize("pid", bank_params(sorted(BANK)))
 def test_published_version_solves_and_checks(pid):
     problem = BANK[pid]
     result = solve_problem(problem, published_values(problem))
@@ -117,7 +118,7 @@ def test_published_version_solves_and_checks(pid):
     assert all(math.isfinite(a.value) for a in result.answers)
 
 
-@pytest.mark.parametrize("pid", sorted(BANK))
+@pytest.mark.parametrize("pid", bank_params(sorted(BANK)))
 def test_fifty_students_get_sound_and_individual_variants(pid):
     problem = BANK[pid]
     seen = set()

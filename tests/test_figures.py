@@ -7,6 +7,7 @@ import re
 from functools import cache
 
 import pytest
+from quick import bank_params
 
 from gradekit import figures
 from gradekit.bank.registry import load_bank
@@ -26,7 +27,7 @@ def svg_text(svg: bytes) -> str:
     return " ".join(re.findall(r"<text[^>]*>([^<]*)</text>", svg.decode()))
 
 
-@pytest.mark.parametrize("pid", IDS)
+@pytest.mark.parametrize("pid", bank_params(IDS))
 def test_every_problem_draws_scene_and_key(pid):
     r = result(pid, "s1")
     svg = figures.to_svg(figures.scene(r))
@@ -50,7 +51,7 @@ def test_same_variant_gives_identical_svg():
     assert ka == kb
 
 
-@pytest.mark.parametrize("pid", IDS)
+@pytest.mark.parametrize("pid", bank_params(IDS))
 def test_scene_shows_no_answer(pid):
     r = result(pid, "s3")
     text = svg_text(figures.to_svg(figures.scene(r)))
@@ -227,7 +228,7 @@ def _to_box(a, b, box) -> float:
     return min(seg_distance(a, b, corners[i], corners[(i + 1) % 4]) for i in range(4))
 
 
-@pytest.mark.parametrize("pid", [p for p in IDS if BANK[p].loads])
+@pytest.mark.parametrize("pid", bank_params(p for p in IDS if BANK[p].loads))
 def test_every_load_label_sits_next_to_its_arrow(pid):
     """A load's label is within a few points of its arrow, or a leader line joins the two.
 
@@ -253,7 +254,7 @@ def test_every_load_label_sits_next_to_its_arrow(pid):
                 assert near or led, (pid, student, true_scale, text)
 
 
-@pytest.mark.parametrize("pid", IDS)
+@pytest.mark.parametrize("pid", bank_params(IDS))
 def test_no_label_overlaps_another_in_any_scene(pid):
     from gradekit.figures.assignment import build_scene
 

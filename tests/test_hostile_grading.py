@@ -7,9 +7,11 @@ the report and the LMS files back.
 from __future__ import annotations
 
 import csv
+import json
 import os
 import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -21,7 +23,13 @@ from gradekit.cli import main
 
 ROSTER = Path("examples/roster.csv").read_text(encoding="utf-8")
 IDS = [line.split(",")[0] for line in ROSTER.splitlines()[1:]]
-ASSIGNMENT = 'title: "HW 9"\ncourse: MEG373\nsalt: "hostile"\nproblems:\n  - {id: ch5-ex5-1, points: 10}\n'
+# ch5-ex5-1 with all three answers graded automatically (the bank checks F03 and T by hand: issue 25):
+# these tests are about what the grader does with hostile files, whatever the bands
+BANK = Path(tempfile.mkdtemp(prefix="gradekit-hostile-bank-"))
+EX5_1 = Path("problem_bank/ch5_ex5_1_slider_crank_static.yaml").read_text(encoding="utf-8")
+(BANK / "ex5_1.yaml").write_text(EX5_1.replace(", hand_check: true", ""), encoding="utf-8")
+ASSIGNMENT = (f'title: "HW 9"\ncourse: MEG373\nsalt: "hostile"\nbank: {json.dumps(str(BANK))}\nproblems:\n'
+              "  - {id: ch5-ex5-1, points: 10}\n")
 
 
 @pytest.fixture(scope="module")

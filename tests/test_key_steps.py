@@ -10,6 +10,7 @@ import re
 from pathlib import Path
 
 import pytest
+from quick import bank_params
 
 import gradekit
 from gradekit.bank.registry import load_bank
@@ -17,13 +18,6 @@ from gradekit.documents.context import _case
 
 ROOT = Path(__file__).resolve().parents[1]
 BANK = sorted(load_bank(ROOT / "problem_bank"))
-# Every problem is checked under the slow marker (`python -m pytest -m slow`, CI runs it); these, one of
-# each method, analysis and kind of route, in the README's quick run.
-QUICK = {"ch5-ex5-1", "ch5-ex5-2", "ch5-ex5-3", "ch5-quiz-q2", "s003-slotted-lever", "s004-case-study"}
-
-
-def _bank(ids) -> list:
-    return [pid if pid in QUICK else pytest.param(pid, marks=pytest.mark.slow) for pid in ids]
 NUMBER = r"−?\d+(?:\.\d+)?"
 
 
@@ -67,7 +61,7 @@ def _terms(line: str) -> list[str]:
     return [("−" if sign == "−" else "") + v for sign, v in toks]
 
 
-@pytest.mark.parametrize("pid", _bank(BANK))
+@pytest.mark.parametrize("pid", bank_params(BANK))
 def test_each_equilibrium_equation_adds_up_to_zero(pid):
     for _res, case, st in _cases(pid):
         assert st["equilibrium"], pid
@@ -94,7 +88,7 @@ def _matrix(st):
     return A, Au, b, bu, x, xu
 
 
-@pytest.mark.parametrize("pid", _bank(p for p in BANK if gradekit.load_problem(p).method == "analytical"))
+@pytest.mark.parametrize("pid", bank_params(p for p in BANK if gradekit.load_problem(p).method == "analytical"))
 def test_printed_matrix_times_printed_solution_is_printed_rhs(pid):
     for _res, _c, st in _cases(pid):
         assert st["matrix"] is not None
@@ -133,7 +127,7 @@ def _solved(line: str) -> dict[str, float]:
     return out
 
 
-@pytest.mark.parametrize("pid", _bank(p for p in BANK if gradekit.load_problem(p).analysis == "dynamic"))
+@pytest.mark.parametrize("pid", bank_params(p for p in BANK if gradekit.load_problem(p).analysis == "dynamic"))
 def test_velocity_and_acceleration_equations_hold_with_the_printed_solution(pid):
     for _res, _c, st in _cases(pid, seeds=(None,)):
         k = st["kinematics"]
@@ -152,7 +146,7 @@ def test_velocity_and_acceleration_equations_hold_with_the_printed_solution(pid)
                 assert abs(lx - rx) <= 2e-3 * size and abs(ly - ry) <= 2e-3 * size, (pid, numbers, solved)
 
 
-@pytest.mark.parametrize("pid", _bank(BANK))
+@pytest.mark.parametrize("pid", bank_params(BANK))
 def test_only_what_the_problem_needs(pid):
     p = gradekit.load_problem(pid)
     for _res, _c, st in _cases(pid, seeds=(None,)):
@@ -168,7 +162,7 @@ def _superposed(pid: str) -> bool:
     return len(gradekit.solve(gradekit.sample(pid)).cases[0].solution.groups) > 1
 
 
-@pytest.mark.parametrize("pid", _bank(p for p in BANK if _superposed(p)))
+@pytest.mark.parametrize("pid", bank_params(p for p in BANK if _superposed(p)))
 def test_superposition_parts_add_up_to_the_total(pid):
     for _res, _c, st in _cases(pid):
         line = _math(st["superposition"][1])

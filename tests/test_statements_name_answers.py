@@ -12,6 +12,7 @@ from __future__ import annotations
 import re
 
 import pytest
+from quick import bank_params
 
 import gradekit
 from gradekit.bank.registry import load_bank
@@ -43,7 +44,7 @@ def test_printed_symbols():
     assert named("F23", "the pin force F23 at C")
 
 
-@pytest.mark.parametrize("pid", sorted(BANK))
+@pytest.mark.parametrize("pid", bank_params(sorted(BANK)))
 def test_statement_names_every_answer(pid):
     p = BANK[pid]
     text = render_statement(p, gradekit.solve(gradekit.sample(pid, seed=1)).values)

@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 import yaml
 from click.testing import CliRunner
+from quick import bank_params
 
 from gradekit.bank.registry import bank_dir, load_bank
 from gradekit.bank.schema import load_problem
@@ -186,7 +187,7 @@ def test_a_row_keeps_an_absolute_part():
 ZERO_VARIANTS = 200
 
 
-@pytest.mark.parametrize("pid", sorted(load_bank()))
+@pytest.mark.parametrize("pid", bank_params(sorted(load_bank())))
 def test_no_band_admits_a_zero_answer(pid):
     """Across drawn variants no grading band reaches zero: the sampler keeps only keys at least
     `gradable` stated bands from zero, so neither a zero nor a blank-as-zero answer is accepted
