@@ -30,7 +30,7 @@ from gradekit.grading.compare import generic_mistakes
 from gradekit.keys import KeyEntry, Tolerance
 from gradekit.mechanics.forces import VW_LIMIT, Conditioning
 from gradekit.mistakes import mistakes_many
-from gradekit.report import fmt
+from gradekit.numbers import fmt
 from gradekit.sampling import class_variants, derive_seed, sample_many, variant
 from gradekit.tolerances import (
     DISCRIMINATION_MIN,

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from gradekit import units
-from gradekit.numbers import fmt  # noqa: F401 (the one formatter, used here and re-exported)
+from gradekit.numbers import fmt
 from gradekit.pipeline import Result
 
 # SI unit of a flat result -> the problem's display dimension

@@ -19,7 +19,7 @@ from jinja2.sandbox import ImmutableSandboxedEnvironment
 from gradekit import units
 from gradekit.bank.model import Problem
 from gradekit.errors import ProblemError
-from gradekit.report import fmt
+from gradekit.numbers import fmt
 
 MAX_LENGTH = 20_000  # characters of statement source and of rendered text
 MAX_BITS = 4_096  # integers in statement arithmetic

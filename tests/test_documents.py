@@ -16,7 +16,7 @@ from gradekit.documents import generate  # noqa: E402
 from gradekit.documents.typeset import Typ, num, paragraphs, string, text  # noqa: E402
 from gradekit.errors import GradekitError  # noqa: E402
 from gradekit.grading.exports import safe_names  # noqa: E402
-from gradekit.report import fmt  # noqa: E402
+from gradekit.numbers import fmt  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 

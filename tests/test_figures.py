@@ -11,7 +11,7 @@ from quick import bank_params
 
 from gradekit import figures
 from gradekit.bank.registry import load_bank
-from gradekit.report import fmt
+from gradekit.numbers import fmt
 from gradekit.sampling import variant
 
 BANK = load_bank()

@@ -23,7 +23,7 @@ from gradekit.assignment import load_assignment, student_variant  # noqa: E402
 from gradekit.bank.registry import load_bank  # noqa: E402
 from gradekit.documents import generate  # noqa: E402
 from gradekit.figures.assignment import ratio_text  # noqa: E402
-from gradekit.report import fmt  # noqa: E402
+from gradekit.numbers import fmt  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 STUDENTS = ["s01", "s02", "s03"]

@@ -31,7 +31,7 @@ from gradekit.documents import html, typeset
 from gradekit.documents.context import Picture, Solved, build_context
 from gradekit.errors import GradekitError
 from gradekit.keys import KeyEntry
-from gradekit.report import fmt
+from gradekit.numbers import fmt
 from gradekit.roster import Student, read_roster, safe_names
 from gradekit.sampling import Variant
 from gradekit.web.access import SECRET_FILE, access_code, load_secret

@@ -13,7 +13,7 @@ import jinja2
 
 from gradekit import units
 from gradekit.errors import GradekitError
-from gradekit.report import fmt
+from gradekit.numbers import fmt
 from gradekit.resources import resource_dir
 
 log = logging.getLogger("gradekit")
@@ -70,7 +70,7 @@ def paragraphs(value: str) -> Typ:
 
 
 def num(value: float, sig: int = 5) -> Typ:
-    """A number through `report.fmt` (the one formatter), with a true minus sign for markup."""
+    """A number through `numbers.fmt` (the one formatter), with a true minus sign for markup."""
     return Typ(fmt(float(value), sig).replace("-", "−"))
 
 

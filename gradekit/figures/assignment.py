@@ -11,8 +11,8 @@ from gradekit.figures.canvas import BLACK, BLUE, GREEN, GREY, PURPLE, VERMILION,
 from gradekit.figures.mech import BAR, PIN, com_marker, draw_linkage, mech_extent
 from gradekit.mechanics.mechanisms import KINDS
 from gradekit.mechanics.model import GROUND, Prismatic
+from gradekit.numbers import fmt
 from gradekit.pipeline import CaseResult, Result
-from gradekit.report import fmt
 
 PT_PER_M = 72.0 / 0.0254  # paper points per metre
 FIT = (300.0, 220.0)  # drawing box of a figure not to scale, in points

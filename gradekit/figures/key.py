@@ -41,8 +41,8 @@ from gradekit.figures.canvas import (
 from gradekit.figures.mech import BAR, PIN, com_marker, draw_linkage
 from gradekit.mechanics.forces import AppliedForce, Member
 from gradekit.mechanics.model import Linkage, Prismatic, same_point
+from gradekit.numbers import fmt
 from gradekit.pipeline import CaseResult, Result
-from gradekit.report import fmt
 
 FONT_FAMILY = FONT
 
