@@ -69,7 +69,9 @@ def _flat(text: str) -> str:
 
 
 _SCALE_NOTES = re.compile(r"(?:[\d.]+ (?:mm|cm|m|in) )?Scale \S+ — [\d.]+ \S+ on paper = [\d.]+ \S+"
-                          r"|Suggested force scale: [\d.]+ \S+ = [\d.]+ \S+")
+                          r"|Suggested force scale: [\d.]+ \S+ = [\d.]+ \S+"
+                          # how long the sheet asks a polygon's largest vector to be drawn (issue 25): no parameter
+                          r"|largest vector [\d.]+ to [\d.]+ mm long")
 
 
 # the answer table ("... on link 2 | lbf·in" is no published load of 2 lbf)

@@ -19,7 +19,7 @@ from gradekit import units
 from gradekit.documents.typeset import Typ, formula, num, text
 from gradekit.mechanics.mechanisms import KINDS, carriers
 from gradekit.mechanics.model import GROUND, Prismatic
-from gradekit.report import display_unit
+from gradekit.report import display_unit, shown_value
 
 SIG = 5  # significant figures of every evaluated term
 COEF_SIG = 4  # of a coefficient (a moment arm, a direction cosine) and of the printed matrix
@@ -39,7 +39,9 @@ def _u(u: str) -> str:
 
 
 def _vec(v, sig: int = SIG) -> str:
-    return f"({n(v[0], sig)}, {n(v[1], sig)})"
+    """``(x, y)``; a component below the vector's magnitude × 1e-12 is a zero's round-off and prints 0."""
+    size = float(np.hypot(v[0], v[1]))
+    return f"({n(shown_value(v[0], size), sig)}, {n(shown_value(v[1], size), sig)})"
 
 
 def _signed(terms: list[tuple[float, str]], sig: int = SIG, zeros: bool = False) -> str:
