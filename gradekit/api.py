@@ -243,15 +243,10 @@ def _grade(assignment, roster, submissions, out, manifest, reveal, bank, recompu
                 progress(len(done), len(asg.items))
 
         keys, variants = class_keys(asg, ids, redraws, progress=step)
-    carry = None
-    credit = asg.carry(forced=carry_forward)
-    if any(credit.values()):
-        from gradekit.grading.carried import CarryForward
+    from gradekit.grading.carried import class_carry
 
-        if frozen is not None:  # the variants behind the frozen keys (checked against them per problem)
-            variants = class_keys(asg, ids, redraws, with_mistakes=False, need_keys=False)[1]
-        carry = CarryForward(variants, credit)
-        carry.check(keys, say)
+    carry = class_carry(asg, ids, redraws, keys, say, forced=carry_forward,
+                        variants=None if frozen is not None else variants)
     titles = {it.label: f"{it.label}: {it.problem.title}" for it in asg.items}
     return grade_batch(
         keys, students, Path(submissions), Path(out), assignment_title=asg.title, reveal=reveal, problem_titles=titles,

@@ -114,3 +114,20 @@ def _credited(label: str, result, rows: list[AnswerResult]) -> dict[int, object]
     tolerances = {s: r.entry.tolerance for s, r in zip(short, rows, strict=True)}
     got = carry.credited(result, submitted, tolerances)
     return {i: got[s] for i, s in enumerate(short) if s in got and not rows[i].correct and rows[i].value is not None}
+
+
+def class_carry(asg, ids: Sequence[str], redraws, keys: Sequence[KeyEntry], warn: Callable[[str], None] | None, *,
+                forced: bool = False, variants: Mapping | None = None) -> CarryForward | None:
+    """The assignment's carried-forward credit for the class *ids* (None when no problem gives any), as
+    `gradekit grade` and the online page apply it: the variants behind *keys* (drawn and solved once,
+    without the mistakes, with the manifest's *redraws*, unless given) checked against them."""
+    credit = asg.carry(forced=forced)
+    if not any(credit.values()):
+        return None
+    if variants is None:
+        from gradekit.assignment import class_keys
+
+        variants = class_keys(asg, list(ids), redraws, with_mistakes=False, need_keys=False)[1]
+    carry = CarryForward(variants, credit)
+    carry.check(keys, warn)
+    return carry

@@ -20,7 +20,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-from gradekit.assignment import Assignment, check_manifest, class_keys, frozen_keys, load_assignment
+from gradekit.assignment import Assignment, check_manifest, frozen_keys, load_assignment
 from gradekit.csvsafe import write_csv
 from gradekit.errors import GradekitError
 from gradekit.grading.compare import StudentGrade, grade_student
@@ -69,17 +69,13 @@ class Course:
         self._ids = IdIndex(self.students)
         self._key_index = KeyIndex(dict.fromkeys(e.key for sid in self.by_id for e in frozen[sid]))
         self._partial = self.assignment.partial_credit()  # as `gradekit grade` gives it
-        self._carry = None
-        credit = self.assignment.carry()
-        if any(credit.values()):  # as `gradekit grade` gives it: the variants behind the frozen keys
-            from gradekit.assignment import redraws_from_manifest
-            from gradekit.grading.carried import CarryForward
+        from gradekit.assignment import redraws_from_manifest
+        from gradekit.grading.carried import class_carry
 
-            ids = list(self.by_id)
-            variants = class_keys(self.assignment, ids, redraws_from_manifest(manifest), with_mistakes=False,
-                                  need_keys=False)[1]
-            self._carry = CarryForward(variants, credit)
-            self._carry.check([e for sid in ids for e in frozen[sid]], lambda note: log.warning("warning: %s", note))
+        ids = list(self.by_id)
+        keys = [e for sid in ids for e in frozen[sid]]
+        self._carry = class_carry(self.assignment, ids, redraws_from_manifest(manifest), keys,  # as `gradekit grade`
+                                  lambda note: log.warning("warning: %s", note))
         self._tmp = Path(tempfile.mkdtemp(prefix="gradekit-serve-"))
 
     def close(self) -> None:
