@@ -21,9 +21,9 @@ import numpy as np  # noqa: E402
 
 from gradekit.bank.registry import load_bank  # noqa: E402
 from gradekit.errors import GradekitError  # noqa: E402
-from gradekit.figures.assignment import printed_scale  # noqa: E402
-from gradekit.keys import Tolerance  # noqa: E402
-from gradekit.pipeline import published_values, solve_problem  # noqa: E402
+from gradekit.figures.sheet import printed_scale  # noqa: E402
+from gradekit.solving.keys import Tolerance  # noqa: E402
+from gradekit.solving.pipeline import published_values, solve_problem  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import tolerance_study as ts  # noqa: E402
@@ -72,7 +72,8 @@ def tolerance_tables(studies: list[ts.Study], bank: dict) -> tuple[str, dict]:
     grader applies (the loaded bank's), and the mistakes those bands cannot catch."""
     defaults = ts.kind_defaults(studies)
     out = [
-        "#### Per-kind defaults (`_kind_defaults` of problem_bank/_tolerances.yaml, read by gradekit/tolerances.py)",
+        "#### Per-kind defaults (`_kind_defaults` of problem_bank/_tolerances.yaml, read by "
+        "gradekit/solving/tolerances.py)",
         "",
         "For answers without a row: the narrowest band whose 95 % upper bound of the honest false-reject rate, "
         "pooled over the kind's answers in the bank (those no band admits left out), is below 0.1 % for every "
@@ -355,7 +356,7 @@ def figure_timing(pid: str, runs: int) -> tuple[str, list[dict]]:
         from gradekit.figures import scene, to_png, to_svg
     except ImportError as exc:
         return f"(skipped: gradekit.figures not available: {exc})", []
-    from gradekit.sampling import variant
+    from gradekit.solving.sampling import variant
 
     res = variant(load_bank()[pid]).result
     rows = []

@@ -33,8 +33,8 @@ from gradekit.assignment import class_keys, load_assignment
 from gradekit.grading.compare import StudentGrade, grade_student
 from gradekit.grading.integrity import SHARED_WRONG, find_copies
 from gradekit.grading.reader import Answer, Submission
-from gradekit.keys import KeyEntry
 from gradekit.roster import Student
+from gradekit.solving.keys import KeyEntry
 
 ROOT = Path(__file__).resolve().parent.parent
 ASSIGNMENT = ROOT / "examples" / "hw5.yaml"

@@ -17,7 +17,7 @@ def _jobs():
     from gradekit import figures
     from gradekit.bank.registry import load_bank
     from gradekit.figures.key import key_figure_specs
-    from gradekit.sampling import variant
+    from gradekit.solving.sampling import variant
 
     jobs = []
     for pid, problem in load_bank().items():

@@ -122,7 +122,7 @@ def bank_problem(pid: str, n: int, runs: int) -> dict:
     """`pipeline.solve_many` of one bank problem over *n* variants (parameters uniform in their
     ranges), every answer read, against the bare batched solve of the same systems."""
     from gradekit.bank.registry import load_bank
-    from gradekit.pipeline import published_values, solve_many
+    from gradekit.solving.pipeline import published_values, solve_many
 
     p = load_bank()[pid]
     rng = np.random.default_rng(1)
@@ -195,7 +195,7 @@ def torque_cycle(runs: int) -> dict:
     import dataclasses
 
     from gradekit.bank.registry import load_bank
-    from gradekit.pipeline import published_values, solve_many
+    from gradekit.solving.pipeline import published_values, solve_many
 
     p = load_bank()["ch5-dyn-slider-crank"]
     theta = p.inputs["theta"]

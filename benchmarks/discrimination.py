@@ -8,8 +8,8 @@ Per answer of every bank problem, at the band the grader applies (the bank as lo
 * the honest false-reject rate of every honest model the sheet asks for (`tolerance_study.simulate`,
   the grader's own `Tolerance.accepts_many`), with its one-sided 95 % Clopper–Pearson upper bound;
 * the share of variants in which an answer 5 % and 10 % off (a direction 2° and 5° off:
-  `gradekit.tolerances.off_by`) still earns full credit;
-* the share of variants in which each catalogued mistake (`gradekit.mistakes`) and each generic
+  `gradekit.solving.tolerances.off_by`) still earns full credit;
+* the share of variants in which each catalogued mistake (`gradekit.solving.mistakes`) and each generic
   one (sign, ×/÷1000, degrees/radians) still earns full credit.
 
 And the class test of the issue: one assignment holding every bank problem (10 points each, shared
@@ -36,9 +36,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import tolerance_study as ts  # noqa: E402
 
 from gradekit.bank.registry import load_bank  # noqa: E402
-from gradekit.figures.assignment import printed_scale  # noqa: E402
-from gradekit.sampling import derive_seed, sample_many  # noqa: E402
-from gradekit.tolerances import (  # noqa: E402
+from gradekit.figures.sheet import printed_scale  # noqa: E402
+from gradekit.solving.sampling import derive_seed, sample_many  # noqa: E402
+from gradekit.solving.tolerances import (  # noqa: E402
     DISCRIMINATION_MIN,
     FALSE_REJECT_MAX,
     OFF_FAR,
@@ -303,7 +303,8 @@ def write(ct: str, parts: list[str], summary: list, hands: list[str], samp: str,
         "",
         "### How the bands were made to grade",
         "",
-        "* **Gradability rule** (`constraints.gradable`, default 10.5, `gradekit/sampling.py`): every automatically "
+        "* **Gradability rule** (`constraints.gradable`, default 10.5, `gradekit/solving/sampling.py`): every "
+        "automatically "
         "graded answer is at least 10.5 bands from zero, so no band is wider than 9.5 % of its answer and an answer "
         "10 % off never earns credit. A band is `rel·|answer|` plus a floor, a fraction of the variant's scale (its "
         "largest answer of the same dimension): the floor is the honest error of the whole construction, measured. "

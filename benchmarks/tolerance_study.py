@@ -1,7 +1,7 @@
 """Tolerances from measurement: simulated honest students against the catalogued mistakes.
 
 For one bank problem the study draws variants spread over the problem's sampling space (the
-sampler's own `gradekit.sampling.sample_many`, so only variants a student can get) and, for every
+sampler's own `gradekit.solving.sampling.sample_many`, so only variants a student can get) and, for every
 variant, *K* honest students per model, all solved in batches:
 
 * ``sf3``, ``sf4``: honest analytical work to 3 and to 4 significant figures. Every given value
@@ -9,7 +9,7 @@ variant, *K* honest students per model, all solved in batches:
   accelerations, joint coordinates) carries an independent uniform error of ±0.5 unit in its last
   kept digit; the mechanics are re-solved with them and the answer is written to that many figures.
 * ``drawing`` (graphical problems): the construction a student makes on the printed sheet.
-  The mechanism is printed at its printed scale *k* (`gradekit.figures.assignment.printed_scale`:
+  The mechanism is printed at its printed scale *k* (`gradekit.figures.sheet.printed_scale`:
   paper length per mechanism length); every point the student takes off the sheet (pivots, pins,
   link ends, where a load acts) is off by up to ±``READ_MM`` mm on paper in x and in y, so every
   line of action through those points is off as the sheet makes it; every direction laid off with
@@ -22,7 +22,7 @@ variant, *K* honest students per model, all solved in batches:
   read off the polygon (±``READ_MM`` mm; the link's direction laid off to ±``READ_DEG``°) times
   the pin's radius (a given dimension); a length is measured on the sheet; an angle is read to
   ±``READ_DEG``°. The answer is written to 3 significant figures.
-* every catalogued mistake (`gradekit.mistakes.mistakes_many`, re-solved) and every generic one
+* every catalogued mistake (`gradekit.solving.mistakes.mistakes_many`, re-solved) and every generic one
   (`gradekit.grading.compare.generic_mistakes`: sign, ×/÷1000, deg/rad).
 
 Scoring uses the grader's own acceptance, `Tolerance.accepts_many` (floor resolved per variant
@@ -46,18 +46,19 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from gradekit import pipeline, units
+from gradekit import units
 from gradekit.bank.model import Problem
 from gradekit.errors import GradekitError
 from gradekit.grading.compare import generic_mistakes
-from gradekit.keys import KeyEntry, Tolerance
 from gradekit.mechanics import forces
 from gradekit.mechanics.jet import Jet, P
 from gradekit.mechanics.model import GROUND, Linkage, Refusals
-from gradekit.mistakes import mistakes_many
-from gradekit.sampling import sample_many
-from gradekit.tolerances import POLYGON_MM as POLYGON_RANGE
-from gradekit.tolerances import READ_DEG, READ_MM, answer_kind
+from gradekit.solving import pipeline
+from gradekit.solving.keys import KeyEntry, Tolerance
+from gradekit.solving.mistakes import mistakes_many
+from gradekit.solving.sampling import sample_many
+from gradekit.solving.tolerances import POLYGON_MM as POLYGON_RANGE
+from gradekit.solving.tolerances import READ_DEG, READ_MM, answer_kind
 
 MODELS = ("sf3", "sf4", "drawing")
 FALSE_REJECT_MAX = 0.001  # the upper bound of the honest false-reject rate must be below this
@@ -345,7 +346,7 @@ def simulate(
 ) -> Study:
     """Draw variants of *problem* and simulate every honest model and every mistake on each.
 
-    *printed_scale* (`gradekit.figures.assignment.printed_scale`) gives a variant's printed scale;
+    *printed_scale* (`gradekit.figures.sheet.printed_scale`) gives a variant's printed scale;
     without it the drawing uses ``figure.true_scale``. A problem without random parameters has one
     variant and ``n_variants × per_variant`` students of it.
     """

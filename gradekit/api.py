@@ -22,8 +22,8 @@ from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
     from gradekit.bank.model import Problem
-    from gradekit.pipeline import Result, ResultBatch
-    from gradekit.sampling import Variant, VariantBatch
+    from gradekit.solving.pipeline import Result, ResultBatch
+    from gradekit.solving.sampling import Variant, VariantBatch
 
 
 def load_problem(spec: str | Path, bank: str | Path | None = None) -> Problem:
@@ -59,7 +59,7 @@ def sample(
         from gradekit.assignment import sheet_variant
 
         return sheet_variant(assignment, p.id, student, manifest)
-    from gradekit.sampling import variant
+    from gradekit.solving.sampling import variant
 
     return variant(p, course=course, salt=salt, student=student, seed=seed, redraw=redraw)
 
@@ -76,7 +76,7 @@ def sample_many(
 
     A seed with no acceptable draw is not an error: ``ok[i]`` is False and ``reason(i)`` says why.
     """
-    from gradekit.sampling import sample_many as draw
+    from gradekit.solving.sampling import sample_many as draw
 
     p = _problem(problem)
     if seeds is None and students is None:
@@ -90,7 +90,7 @@ def solve(variant: Variant | Problem | str, values: dict[str, float] | None = No
     """A variant's solution (made once, when it was drawn), or a problem solved at *values*."""
     if hasattr(variant, "result"):
         return variant.result
-    from gradekit.pipeline import published_values, solve_problem
+    from gradekit.solving.pipeline import published_values, solve_problem
 
     p = _problem(variant)
     return solve_problem(p, {**published_values(p), **_known(p, values)})
@@ -106,8 +106,8 @@ def solve_many(variants: VariantBatch | Problem | str, values: dict | None = Non
         return variants
     import numpy as np
 
-    from gradekit.pipeline import published_values
-    from gradekit.pipeline import solve_many as batch
+    from gradekit.solving.pipeline import published_values
+    from gradekit.solving.pipeline import solve_many as batch
 
     p = _problem(variants)
     vals = {**published_values(p), **_known(p, values)}

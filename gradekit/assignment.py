@@ -22,9 +22,9 @@ from gradekit.bank.registry import load_bank, load_problems
 from gradekit.bank.schema import _Collector, _tolerance
 from gradekit.bank.yamlfile import load
 from gradekit.errors import ErrorList, GradekitError, ProblemError
-from gradekit.keys import KeyEntry, PartialCredit, Tolerance, tolerance_columns, within
-from gradekit.mistakes import catalogued_mistakes
-from gradekit.sampling import Variant, derive_seed, variant
+from gradekit.solving.keys import KeyEntry, PartialCredit, Tolerance, tolerance_columns, within
+from gradekit.solving.mistakes import catalogued_mistakes
+from gradekit.solving.sampling import Variant, derive_seed, variant
 
 
 @dataclass(frozen=True)
@@ -546,7 +546,7 @@ def class_keys(
     Returns:
         (key entries, ``{student: {label: Variant}}``).
     """
-    from gradekit.sampling import class_variants
+    from gradekit.solving.sampling import class_variants
 
     variants: dict[str, dict[str, Variant]] = {s: {} for s in student_ids}
     for item in asg.items:

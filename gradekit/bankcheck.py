@@ -22,17 +22,17 @@ from pathlib import Path
 
 import numpy as np
 
-from gradekit.answers import published_mismatches
 from gradekit.bank.measured import measured_tolerances
 from gradekit.bank.registry import load_bank
 from gradekit.errors import GradekitError
 from gradekit.grading.compare import generic_mistakes
-from gradekit.keys import KeyEntry, Tolerance
 from gradekit.mechanics.forces import VW_LIMIT, Conditioning
-from gradekit.mistakes import mistakes_many
 from gradekit.numbers import fmt
-from gradekit.sampling import class_variants, derive_seed, sample_many, variant
-from gradekit.tolerances import (
+from gradekit.solving.answers import published_mismatches
+from gradekit.solving.keys import KeyEntry, Tolerance
+from gradekit.solving.mistakes import mistakes_many
+from gradekit.solving.sampling import class_variants, derive_seed, sample_many, variant
+from gradekit.solving.tolerances import (
     DISCRIMINATION_MIN,
     FALSE_REJECT_MAX,
     OFF_FAR,

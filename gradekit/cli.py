@@ -51,7 +51,7 @@ def main(verbose: int, quiet: bool) -> None:
 
 
 def _variant(problem, published: bool, student: str | None, seed: int | None, course: str, salt: str, redraw: int = 0):
-    from gradekit.sampling import variant
+    from gradekit.solving.sampling import variant
 
     if sum(x is not None and x is not False for x in (student, seed)) + bool(published) > 1:
         raise click.UsageError("give at most one of --published, --student and --seed")
@@ -129,7 +129,7 @@ def solve(
     manifest: str | None,
 ) -> None:
     """Solve PROBLEM (a bank id or a YAML path) and print parameters, intermediate values and answers."""
-    from gradekit import report
+    from gradekit.solving import report
 
     v = _student_variant(problem, published, student, seed, course, salt, redraw, bank, assignment, manifest,
                          quiet=as_json)
@@ -185,7 +185,7 @@ def bank_list(as_json: bool, bank: str | None) -> None:
 def bank_show(problem: str, student: str | None, course: str, salt: str, bank: str | None,
               assignment: str | None, manifest: str | None) -> None:
     """Show a problem's statement with the published or a student's values, and its answers."""
-    from gradekit import report
+    from gradekit.solving import report
     from gradekit.statement import render_statement
 
     v = _student_variant(problem, False, student, None, course, salt, 0, bank, assignment, manifest)

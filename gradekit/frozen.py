@@ -27,7 +27,7 @@ import orjson
 
 from gradekit import __version__
 from gradekit.errors import GradekitError
-from gradekit.keys import KeyEntry, Mistake, Tolerance
+from gradekit.solving.keys import KeyEntry, Mistake, Tolerance
 
 FILE = "keys.json"
 FORMAT = 1

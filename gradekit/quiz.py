@@ -3,7 +3,7 @@
 Per problem, N variants drawn as students' sheets are (course, salt, a quiz-only id), each with its
 statement, figure (an embedded PNG with its text alternative), the sign convention and, per answer
 key, one numerical answer in the key's unit whose ABSOLUTE tolerance is the band the grader gives
-that variant (`gradekit.keys.Tolerance.band` of the key entry, which `gradekit.assignment.keys_for`
+that variant (`gradekit.solving.keys.Tolerance.band` of the key entry, which `gradekit.assignment.keys_for`
 makes as for a student).
 
 Moodle: a category per problem holding one Cloze question per variant, a NUMERICAL box per answer
@@ -28,7 +28,7 @@ from typing import TYPE_CHECKING
 from xml.sax.saxutils import escape, quoteattr
 
 from gradekit.errors import GradekitError
-from gradekit.keys import KeyEntry
+from gradekit.solving.keys import KeyEntry
 from gradekit.units import pretty
 
 if TYPE_CHECKING:

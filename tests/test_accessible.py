@@ -21,7 +21,7 @@ from gradekit.bank.registry import load_bank
 from gradekit.documents import generate
 from gradekit.documents.typeset import speak
 from gradekit.numbers import fmt
-from gradekit.sampling import variant
+from gradekit.solving.sampling import variant
 from gradekit.statement import render_statement
 
 ROOT = Path(__file__).resolve().parents[1]

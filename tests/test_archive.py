@@ -13,8 +13,8 @@ import pytest
 from gradekit.errors import GradekitError
 from gradekit.grading import grade_batch
 from gradekit.grading.archive import Limits, submissions_folder, unpack
-from gradekit.keys import KeyEntry, Tolerance
 from gradekit.roster import Student
+from gradekit.solving.keys import KeyEntry, Tolerance
 
 STUDENTS = [Student("1001", "Selam Haile"), Student("1002", "Lars de Vries"), Student("1003", "Zoë Núñez"),
             Student("1004", "Ada Lee")]

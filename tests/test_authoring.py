@@ -11,14 +11,14 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from gradekit.answers import published_mismatches
 from gradekit.bank.schema import load_problem
 from gradekit.bank.starter import kinds_reference, starter
 from gradekit.cli import main
 from gradekit.errors import ErrorList
 from gradekit.mechanics.mechanisms import KINDS
-from gradekit.pipeline import published_values, solve_problem
-from gradekit.sampling import sample_many
+from gradekit.solving.answers import published_mismatches
+from gradekit.solving.pipeline import published_values, solve_problem
+from gradekit.solving.sampling import sample_many
 
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLE = ROOT / "examples" / "slider_crank_damper.yaml"
@@ -179,7 +179,7 @@ def test_a_damper_at_an_ambiguous_pin_asks_which_body(tmp_path):
 
 
 def test_the_reference_lists_every_result_of_the_table():
-    from gradekit.quantities import QUANTITIES
+    from gradekit.solving.quantities import QUANTITIES
 
     text = (ROOT / "docs" / "authoring.md").read_text(encoding="utf-8")
     for q in QUANTITIES:

@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 
 from gradekit.bank.schema import load_problem
-from gradekit.pipeline import published_values
-from gradekit.pipeline import solve_many as solve_batch
+from gradekit.solving.pipeline import published_values
+from gradekit.solving.pipeline import solve_many as solve_batch
 
 BASE = """\
 id: t-fourbar

@@ -11,8 +11,8 @@ import pytest
 import reference
 
 from gradekit.bank.schema import load_problem
-from gradekit.pipeline import published_values
-from gradekit.sampling import variant
+from gradekit.solving.pipeline import published_values
+from gradekit.solving.sampling import variant
 
 BANK = Path(__file__).resolve().parents[1] / "problem_bank"
 FILES = {

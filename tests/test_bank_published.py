@@ -16,8 +16,8 @@ from quick import bank_params
 
 from gradekit import units
 from gradekit.bank.registry import load_bank
-from gradekit.pipeline import published_values, solve_problem
-from gradekit.sampling import variant
+from gradekit.solving.pipeline import published_values, solve_problem
+from gradekit.solving.sampling import variant
 
 BANK = load_bank()
 

@@ -18,8 +18,8 @@ import reference
 
 from gradekit import units
 from gradekit.bank.schema import Problem, load_problem
-from gradekit.pipeline import published_values, solve_problem
-from gradekit.sampling import check, variant
+from gradekit.solving.pipeline import published_values, solve_problem
+from gradekit.solving.sampling import check, variant
 
 BANK = Path(__file__).resolve().parents[1] / "problem_bank"
 FILES = sorted(BANK.glob("s00[234]_*.yaml"))

@@ -14,9 +14,9 @@ from gradekit.bank.registry import load_bank
 from gradekit.mechanics.forces import Conditioning, solve, solve_many
 from gradekit.mechanics.mechanisms import Motion, build, build_many
 from gradekit.mechanics.model import Analysis, Load
-from gradekit.pipeline import published_values, solve_problem
-from gradekit.pipeline import solve_many as solve_problem_many
-from gradekit.sampling import sample_many, variant
+from gradekit.solving.pipeline import published_values, solve_problem
+from gradekit.solving.pipeline import solve_many as solve_problem_many
+from gradekit.solving.sampling import sample_many, variant
 
 GOLDEN = json.loads((Path(__file__).parent / "data" / "golden_answers.json").read_text())
 BANK = load_bank()

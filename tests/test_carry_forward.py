@@ -1,4 +1,4 @@
-"""Error carried forward (gradekit.carry): dependencies derived from the model, and later answers
+"""Error carried forward (gradekit.solving.carry): dependencies derived from the model, and later answers
 recomputed from a student's own earlier ones, checked against independent full solves."""
 
 from __future__ import annotations
@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 
 import gradekit
-from gradekit import carry, quantities
 from gradekit.bank.registry import load_bank
-from gradekit.keys import Tolerance
+from gradekit.solving import carry, quantities
+from gradekit.solving.keys import Tolerance
 
 BANK = load_bank()
 DYNAMIC = ("ch5-ex5-3", "ch5-dyn-slider-crank", "s004-case-study")

@@ -5,7 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from gradekit.assignment import class_keys, class_redraws, load_assignment
-from gradekit.sampling import variant
+from gradekit.solving.sampling import variant
 
 
 def _assignment(tmp_path: Path, extra: str = "") -> Path:

@@ -2,7 +2,7 @@
 
 One test per goal over sampled variants of every bank problem. Expected values come from the
 models: the key solved by gradekit, the answer moved by the perturbation (×1.10, +5°), the
-catalogued mistakes re-solved (`gradekit.mistakes`), honest students re-solved from given values
+catalogued mistakes re-solved (`gradekit.solving.mistakes`), honest students re-solved from given values
 rounded to the precision the sheet asks for; every answer is judged by the band its key carries
 (`Tolerance.accepts_many`, the grader's predicate). Answers marked ``hand_check`` are not graded
 automatically and are left out. The full honest-student study (3 and 4 figures, drawings on the
@@ -17,9 +17,9 @@ import numpy as np
 import pytest
 
 from gradekit.bank.registry import load_bank
-from gradekit.mistakes import mistakes_many
-from gradekit.pipeline import solve_many
-from gradekit.sampling import sample_many, torque_arms
+from gradekit.solving.mistakes import mistakes_many
+from gradekit.solving.pipeline import solve_many
+from gradekit.solving.sampling import sample_many, torque_arms
 
 BANK = load_bank()
 IDS = sorted(BANK)
@@ -154,7 +154,7 @@ def test_honest_work_at_the_sheets_precision_is_admitted(pid):
 def test_no_graphical_torque_is_read_off_a_polygon_with_nearly_parallel_sides(pid):
     """The gradability rule: every drawn torque is at least ARM_MIN of the moment its polygon's largest
     force would have at the crank pin (|T| over F_max·r, recomputed here from the solved forces)."""
-    from gradekit.tolerances import ARM_MIN
+    from gradekit.solving.tolerances import ARM_MIN
 
     vb = drawn(pid)
     for batch, rows in vb.by_batch():
@@ -180,8 +180,8 @@ def test_every_drawn_answer_is_at_least_10_5_bands_from_zero(pid):
 
 def test_statements_ask_for_the_precision_the_bands_assume():
     """A problem's ``sigfigs`` is printed in its statement; a graphical statement prints the reading
-    accuracy and polygon size the drawing model assumes (gradekit.tolerances)."""
-    from gradekit.tolerances import POLYGON_MM, READ_DEG, READ_MM
+    accuracy and polygon size the drawing model assumes (gradekit.solving.tolerances)."""
+    from gradekit.solving.tolerances import POLYGON_MM, READ_DEG, READ_MM
 
     for pid, p in BANK.items():
         if p.sigfigs != 3:
@@ -218,7 +218,7 @@ def test_the_honest_study_stays_below_a_tenth_of_a_percent(pid, monkeypatch):
     monkeypatch.syspath_prepend(str(ROOT / "benchmarks"))  # the study lives with the benchmarks; restored after
     import tolerance_study as ts
 
-    from gradekit.figures.assignment import printed_scale
+    from gradekit.figures.sheet import printed_scale
 
     p = BANK[pid]
     st = ts.simulate(p, 500, 20, printed_scale=printed_scale)  # as the table (derive_tolerances) measures

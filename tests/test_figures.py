@@ -12,7 +12,7 @@ from quick import bank_params
 from gradekit import figures
 from gradekit.bank.registry import load_bank
 from gradekit.numbers import fmt
-from gradekit.sampling import variant
+from gradekit.solving.sampling import variant
 
 BANK = load_bank()
 IDS = sorted(BANK)
@@ -147,7 +147,8 @@ def test_solver_does_not_import_matplotlib():
     import subprocess
     import sys
 
-    code = ("import sys; from gradekit.pipeline import solve_problem; from gradekit.sampling import variant; "
+    code = ("import sys; from gradekit.solving.pipeline import solve_problem; "
+            "from gradekit.solving.sampling import variant; "
             "print('matplotlib' in sys.modules)")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "False"
@@ -162,7 +163,7 @@ def test_a_load_point_named_by_its_dimension_is_labelled():
 
 
 def test_a_scene_too_wide_for_a_page_is_drawn_at_a_printable_stated_scale():
-    from gradekit.figures.assignment import LANDSCAPE, printed_scale
+    from gradekit.figures.sheet import LANDSCAPE, printed_scale
 
     pr = BANK["s003-slider-crank"]
     seen = set()
@@ -234,8 +235,8 @@ def test_every_load_label_sits_next_to_its_arrow(pid):
 
     (Seen: on s003-whitworth the label of f1 stood ~60 pt below its arrow, next to another force.)
     """
-    from gradekit.figures.assignment import build_scene
     from gradekit.figures.canvas import LEADER_GAP
+    from gradekit.figures.sheet import build_scene
 
     for student in ("s1", "s2", "s3"):
         r = result(pid, student)
@@ -256,7 +257,7 @@ def test_every_load_label_sits_next_to_its_arrow(pid):
 
 @pytest.mark.parametrize("pid", bank_params(IDS))
 def test_no_label_overlaps_another_in_any_scene(pid):
-    from gradekit.figures.assignment import build_scene
+    from gradekit.figures.sheet import build_scene
 
     for student in ("s1", "s2", "s3"):
         r = result(pid, student)

@@ -8,8 +8,8 @@ import pytest
 
 import gradekit
 from gradekit.bank.registry import load_bank
-from gradekit.figures.assignment import build_scene
 from gradekit.figures.canvas import Canvas, _hits, text_size
+from gradekit.figures.sheet import build_scene
 
 BANK = load_bank()
 

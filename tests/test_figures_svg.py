@@ -10,7 +10,7 @@ import pytest
 
 from gradekit.bank.registry import load_bank
 from gradekit.figures import key_figure_svgs, key_figures, scene, scene_svg, to_svg
-from gradekit.sampling import variant
+from gradekit.solving.sampling import variant
 
 BANK = load_bank()
 _SIZE = re.compile(rb'<svg[^>]*width="([\d.]+)pt" height="([\d.]+)pt"')

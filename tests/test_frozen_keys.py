@@ -112,7 +112,7 @@ def test_tolerance_floors_compare_answers_of_one_dimension_in_si(tmp_path):
     """An answer in kN beside one in N: the floor's scale is the largest force in SI, expressed in each
     answer's own unit (not the largest raw number, which would make the kN floor 1000 times too wide)."""
     from gradekit.bank.schema import load_problem
-    from gradekit.pipeline import published_values, solve_problem
+    from gradekit.solving.pipeline import published_values, solve_problem
 
     text = (ROOT / "problem_bank" / "ch5_ex5_1_slider_crank_static.yaml").read_text(encoding="utf-8")
     text = text.replace('{key: F23, of: "F[2,3].mag", unit: N,', '{key: F23, of: "F[2,3].mag", unit: kN,')
@@ -159,7 +159,7 @@ def test_every_roster_student_is_graded_once_and_keys_derived_with_progress(cour
 
 
 def _entries():
-    from gradekit.keys import KeyEntry, Mistake, Tolerance
+    from gradekit.solving.keys import KeyEntry, Mistake, Tolerance
 
     tol = Tolerance("relative", 0.01, abs=0.5, floor=0.001)
     return [

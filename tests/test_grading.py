@@ -9,8 +9,8 @@ import pytest
 
 from gradekit.errors import GradekitError
 from gradekit.grading import FileRecord, grade_batch
-from gradekit.keys import KeyEntry, Mistake, Tolerance
 from gradekit.roster import Student
+from gradekit.solving.keys import KeyEntry, Mistake, Tolerance
 
 IDS = ["1001", "1002", "1003", "1004", "1005", "1006", "1007", "1008", "1009", "1010"]
 NAMES = [

@@ -12,11 +12,12 @@ import pytest
 from click.testing import CliRunner
 
 import gradekit
-from gradekit import carry, frozen
+from gradekit import frozen
 from gradekit.assignment import class_keys, load_assignment, manifest, seeds_of
 from gradekit.cli import main
 from gradekit.errors import GradekitError
 from gradekit.numbers import fmt
+from gradekit.solving import carry
 
 PROBLEMS = ("ch5-ex5-3", "ch5-dyn-slider-crank", "s004-case-study")
 IDS = ("7001", "7002", "7003")  # misread ω; misread ω and later answers inconsistent; honest

@@ -10,7 +10,7 @@ import pytest
 from gradekit.grading.compare import compare, diagnose, generic_mistakes
 from gradekit.grading.exports import feedback_html, feedback_markdown, safe_name, safe_names
 from gradekit.grading.reader import Answer
-from gradekit.keys import KeyEntry, Mistake, Tolerance
+from gradekit.solving.keys import KeyEntry, Mistake, Tolerance
 
 
 @pytest.mark.parametrize(

@@ -13,8 +13,8 @@ from gradekit import units
 from gradekit.errors import GradekitError
 from gradekit.grading.compare import grade_student
 from gradekit.grading.reader import IdIndex, KeyIndex, Submission, read_file
-from gradekit.keys import KeyEntry, Tolerance
 from gradekit.roster import Student
+from gradekit.solving.keys import KeyEntry, Tolerance
 
 STUDENTS = [Student("123", "A"), Student("456", "B", lms_id="789")]
 KEYS = [

@@ -11,8 +11,8 @@ import pytest
 from gradekit.grading.batch import read_submissions
 from gradekit.grading.compare import grade_student
 from gradekit.grading.reader import IdIndex, KeyIndex, parse_value, read_file
-from gradekit.keys import KeyEntry, Tolerance
 from gradekit.roster import Student
+from gradekit.solving.keys import KeyEntry, Tolerance
 
 STUDENTS = [Student("123", "Selam Haile", lms_id="98765"), Student("0456", "Abebe Kebede")]
 KEYS = [

@@ -18,8 +18,8 @@ import pytest
 from gradekit.grading.compare import grade_student
 from gradekit.grading.integrity import KEY_MATCH, SHARED_WRONG, find_copies, poisson_binomial_tails
 from gradekit.grading.reader import Answer, Submission
-from gradekit.keys import KeyEntry, Tolerance
 from gradekit.roster import Student
+from gradekit.solving.keys import KeyEntry, Tolerance
 
 N = 300
 TOL = Tolerance("relative", rel=0.02)

@@ -13,8 +13,8 @@ import pytest
 from gradekit.errors import GradekitError
 from gradekit.grading import grade_batch
 from gradekit.grading.exports import EXPORTS, GradedClass, choose_exports, write_exports
-from gradekit.keys import KeyEntry, Tolerance
 from gradekit.roster import Student
+from gradekit.solving.keys import KeyEntry, Tolerance
 
 STUDENTS = [
     Student("1001", "Selam Haile", "selam@uni.edu", "A"),

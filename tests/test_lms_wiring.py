@@ -65,8 +65,8 @@ def test_moodle_41_folders_name_their_participant(tmp_path: Path) -> None:
     """Moodle 4.1 and later name a participant's folder without the trailing "_"; its file is the
     participant's even when the file itself names no one."""
     from gradekit.grading import grade_batch
-    from gradekit.keys import KeyEntry, Tolerance
     from gradekit.roster import Student
+    from gradekit.solving.keys import KeyEntry, Tolerance
 
     for name, value in (("Selam Haile_501_assignsubmission_file", 1.5), ("Ada Lee_502_assignsubmission_file_", 2.5)):
         (tmp_path / "subs" / name).mkdir(parents=True)

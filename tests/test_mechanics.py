@@ -162,7 +162,7 @@ def test_unit_invariance_mm_and_m():
     """The same mechanism solved in mm and in m gives the same answers (through the problem files)."""
     from gradekit.bank.schema import validate
     from gradekit.bank.yamlfile import load
-    from gradekit.pipeline import published_values, solve_problem
+    from gradekit.solving.pipeline import published_values, solve_problem
 
     base = load("problem_bank/ch5_ex5_1_slider_crank_static.yaml")
     p_mm = validate(base, "mm.yaml")

@@ -22,7 +22,7 @@ from gradekit import units  # noqa: E402
 from gradekit.assignment import load_assignment, student_variant  # noqa: E402
 from gradekit.bank.registry import load_bank  # noqa: E402
 from gradekit.documents import generate  # noqa: E402
-from gradekit.figures.assignment import ratio_text  # noqa: E402
+from gradekit.figures.sheet import ratio_text  # noqa: E402
 from gradekit.numbers import fmt  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -227,8 +227,8 @@ def test_true_scale_figures_fit_and_state_their_scale(whole_bank):
 
 
 def test_a_drawing_too_wide_for_a_page_is_printed_at_a_smaller_stated_scale(tmp_path):
-    from gradekit.figures.assignment import LANDSCAPE, printed_scale
-    from gradekit.sampling import variant
+    from gradekit.figures.sheet import LANDSCAPE, printed_scale
+    from gradekit.solving.sampling import variant
 
     pr = load_bank(ROOT / "problem_bank")["s003-slider-crank"]
     sid = next(f"w{i}" for i in range(200)

@@ -16,8 +16,8 @@ from click.testing import CliRunner
 
 from gradekit.cli import main
 from gradekit.grading import grade_batch
-from gradekit.keys import KeyEntry, Mistake, Tolerance
 from gradekit.roster import Student
+from gradekit.solving.keys import KeyEntry, Mistake, Tolerance
 
 ROOT = Path(__file__).resolve().parents[1]
 ANGLE = Tolerance("relative", rel=0.0, abs=0.5, period=360.0)

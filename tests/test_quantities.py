@@ -4,10 +4,11 @@ from __future__ import annotations
 
 import pytest
 
-from gradekit import quantities, units
+from gradekit import units
 from gradekit.bank.registry import load_bank
-from gradekit.sampling import variant
-from gradekit.tolerances import answer_kind
+from gradekit.solving import quantities
+from gradekit.solving.sampling import variant
+from gradekit.solving.tolerances import answer_kind
 
 BANK = load_bank()
 

@@ -8,7 +8,7 @@ import pytest
 
 from gradekit.bank.schema import load_problem
 from gradekit.errors import SamplingError
-from gradekit.sampling import class_variants, derive_seed, variant
+from gradekit.solving.sampling import class_variants, derive_seed, variant
 
 EX51 = "problem_bank/ch5_ex5_1_slider_crank_static.yaml"
 
@@ -85,7 +85,7 @@ def test_impossible_constraints_name_the_constraint_that_rejected_most(tmp_path)
 
 def test_every_drawn_answer_is_gradable_and_listed_mistakes_are_distinguishable():
     from gradekit.bank.registry import load_bank
-    from gradekit.mistakes import catalogued_mistakes
+    from gradekit.solving.mistakes import catalogued_mistakes
 
     """The sampler's guarantees hold at the bands the problem file states (constraints.bands):
     every answer two bands from zero, each declared mistake two bands from the key. (The grading

@@ -11,7 +11,7 @@ import pytest
 
 from gradekit.bank.model import Parameter
 from gradekit.bank.registry import load_bank
-from gradekit.sampling import _Drawer, check, derive_seed, draw, published_values, round_display, sample_many
+from gradekit.solving.sampling import _Drawer, check, derive_seed, draw, published_values, round_display, sample_many
 
 STEPPED = [
     Parameter("a", "mm", low=20.0, high=45.0, step=1.0),

@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 
 from gradekit.bank.registry import load_bank
-from gradekit.mistakes import mistakes_many
-from gradekit.pipeline import solve_many
-from gradekit.sampling import sample_many
+from gradekit.solving.mistakes import mistakes_many
+from gradekit.solving.pipeline import solve_many
+from gradekit.solving.sampling import sample_many
 
 
 @pytest.mark.parametrize("pid", ["ch5-ex5-3", "s004-case-study", "s002-fourbar-matrix"])

@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 
 from gradekit.bank.registry import load_bank
-from gradekit.keys import Tolerance
-from gradekit.sampling import sample_many
+from gradekit.solving.keys import Tolerance
+from gradekit.solving.sampling import sample_many
 
 BANK = load_bank()
 # a problem with angle answers, one with small components judged by the floor, one graphical

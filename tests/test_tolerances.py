@@ -16,10 +16,10 @@ from gradekit.bank.registry import bank_dir, load_bank
 from gradekit.bank.schema import load_problem
 from gradekit.cli import main
 from gradekit.errors import GradekitError
-from gradekit.keys import Tolerance
-from gradekit.pipeline import published_values, solve_problem
-from gradekit.sampling import derive_seed, sample_many
-from gradekit.tolerances import answer_kind, defaults, from_row, to_row
+from gradekit.solving.keys import Tolerance
+from gradekit.solving.pipeline import published_values, solve_problem
+from gradekit.solving.sampling import derive_seed, sample_many
+from gradekit.solving.tolerances import answer_kind, defaults, from_row, to_row
 
 EX51 = "problem_bank/ch5_ex5_1_slider_crank_static.yaml"
 

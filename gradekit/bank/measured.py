@@ -4,7 +4,7 @@ A problem states each answer's band in ``constraints.bands`` (the band the sampl
 by: ``gradable``, ``distinguish``), or gives the answer an explicit ``tolerance:``. The bank folder's
 ``_tolerances.yaml`` (written by benchmarks/derive_tolerances.py) copies each stated band beside its
 measured honest false-reject bound and mistake detection, and holds the per-kind defaults
-(`gradekit.tolerances`) for answers that state none. Grading applies the table's row, which is the
+(`gradekit.solving.tolerances`) for answers that state none. Grading applies the table's row, which is the
 stated band unless the table is stale (`gradekit bank check` fails then); the sampler reads the
 file alone, so re-deriving the table never changes a student's numbers.
 """
@@ -16,8 +16,8 @@ from pathlib import Path
 
 from gradekit.bank.model import Problem
 from gradekit.errors import ProblemError
-from gradekit.keys import Tolerance
-from gradekit.tolerances import from_row
+from gradekit.solving.keys import Tolerance
+from gradekit.solving.tolerances import from_row
 
 MEASURED = "_tolerances.yaml"
 _MEASURED_CACHE: dict[Path, dict] = {}

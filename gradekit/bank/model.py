@@ -9,10 +9,10 @@ from dataclasses import dataclass, field
 from typing import ClassVar
 
 from gradekit.bank import expr
-from gradekit.keys import Tolerance
 from gradekit.mechanics.mechanisms import ANGLE_PARAMS as MECHANISM_ANGLES
 from gradekit.mechanics.mechanisms import KINDS
-from gradekit.tolerances import OFF_FAR
+from gradekit.solving.keys import Tolerance
+from gradekit.solving.tolerances import OFF_FAR
 
 Value = float | str  # a literal number (in the problem's default unit) or a parameter/expression
 

@@ -13,7 +13,7 @@ import re
 from pathlib import Path
 from typing import Any
 
-from gradekit import quantities, tolerances, units
+from gradekit import units
 from gradekit.bank import expr
 from gradekit.bank.measured import MEASURED, apply_measured, measured_tolerances  # noqa: F401
 from gradekit.bank.model import (
@@ -41,8 +41,9 @@ from gradekit.bank.model import (
 )
 from gradekit.bank.yamlfile import LineDict, LineList
 from gradekit.errors import ErrorList, GradekitError, ProblemError
-from gradekit.keys import Tolerance
 from gradekit.mechanics.mechanisms import KINDS
+from gradekit.solving import quantities, tolerances
+from gradekit.solving.keys import Tolerance
 
 
 class _Collector:

@@ -22,10 +22,10 @@ from gradekit.documents.typeset import (
     unit,
 )
 from gradekit.mechanics.model import GROUND, Prismatic
-from gradekit.pipeline import CaseResult, Result
-from gradekit.report import display_unit
 from gradekit.roster import Student
-from gradekit.sampling import Variant
+from gradekit.solving.pipeline import CaseResult, Result
+from gradekit.solving.report import display_unit
+from gradekit.solving.sampling import Variant
 from gradekit.statement import render_statement
 
 
@@ -127,7 +127,7 @@ def _scenes(res: Result, pictures: tuple[Picture, ...], before: int) -> list[dic
     problem's scale, or 1:2, 1:5 ... when that would not fit a page). When one figure of the
     problem needs a landscape page, all of them go there, so they stay in case order.
     """
-    from gradekit.figures.assignment import printed_scale, ratio_text
+    from gradekit.figures.sheet import printed_scale, ratio_text
 
     cases = [c.name for c in res.cases] if len(res.cases) > 1 else [None]
     wide = any(f.wide for f in pictures)

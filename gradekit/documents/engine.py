@@ -30,10 +30,10 @@ from gradekit.csvsafe import StagedFolder, atomic_write, os_errors, write_csv
 from gradekit.documents import html, typeset
 from gradekit.documents.context import Picture, Solved, build_context
 from gradekit.errors import GradekitError
-from gradekit.keys import KeyEntry
 from gradekit.numbers import fmt
 from gradekit.roster import Student, read_roster, safe_names
-from gradekit.sampling import Variant
+from gradekit.solving.keys import KeyEntry
+from gradekit.solving.sampling import Variant
 from gradekit.web.access import SECRET_FILE, access_code, load_secret
 
 log = logging.getLogger("gradekit")

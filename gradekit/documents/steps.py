@@ -19,7 +19,7 @@ from gradekit import units
 from gradekit.documents.typeset import Typ, formula, num, text
 from gradekit.mechanics.mechanisms import KINDS, carriers
 from gradekit.mechanics.model import GROUND, Prismatic
-from gradekit.report import display_unit, shown_value
+from gradekit.solving.report import display_unit, shown_value
 
 SIG = 5  # significant figures of every evaluated term
 COEF_SIG = 4  # of a coefficient (a moment arm, a direction cosine) and of the printed matrix
@@ -469,8 +469,8 @@ def construction(p, sol) -> list[dict]:
 
 def _construction(p, sol, group) -> list[Typ]:
     """The graphical method in steps, member by member (two-force members first)."""
-    from gradekit.figures.assignment import driver_key
     from gradekit.figures.key import POLY_SIZE, force_name, nice
+    from gradekit.figures.sheet import driver_key
 
     link = sol.linkage
     nm = Names(p, link)

@@ -13,7 +13,7 @@ from pathlib import Path
 
 import matplotlib
 
-from gradekit.pipeline import Result
+from gradekit.solving.pipeline import Result
 
 SVG_RC = {"svg.fonttype": "none", "svg.hashsalt": "gradekit", "svg.image_inline": True}
 
@@ -22,13 +22,13 @@ def scene(result: Result, case: str | None = None, *, true_scale: bool = False):
     """The assignment figure: the student's mechanism with the given values, no solved answer.
 
     Args:
-        result: the solved variant (`gradekit.sampling.variant(...).result`).
+        result: the solved variant (`gradekit.solving.sampling.variant(...).result`).
         case: the case (position) to draw; the first when None.
         true_scale: draw at ``problem.figure.true_scale`` (paper length per mechanism length) so
             the SVG placed at its natural size measures true, with a scale bar and the printed scale.
     """
-    from gradekit.figures.assignment import build_scene
     from gradekit.figures.canvas import render
+    from gradekit.figures.sheet import build_scene
 
     return render(build_scene(result, case, true_scale))
 
@@ -42,8 +42,8 @@ def key_figures(result: Result) -> list[tuple[str, str, object]]:
 
 def scene_svg(result: Result, case: str | None = None, *, true_scale: bool = False) -> bytes:
     """`scene` as SVG bytes, written straight from the display list (no matplotlib; documents use it)."""
-    from gradekit.figures.assignment import build_scene
     from gradekit.figures.canvas import svg
+    from gradekit.figures.sheet import build_scene
 
     return svg(build_scene(result, case, true_scale))
 
@@ -52,8 +52,8 @@ def scene_described(result: Result, case: str | None = None, *, true_scale: bool
     """`scene_svg` and the scene's text alternative, written from the model as it is drawn: the
     mechanism, its links with their printed lengths, the crank angle, the points, each load with its
     magnitude and direction, the scale. Only what the sheet prints: never a solved answer."""
-    from gradekit.figures.assignment import build_scene
     from gradekit.figures.canvas import svg
+    from gradekit.figures.sheet import build_scene
 
     cv = build_scene(result, case, true_scale)
     return svg(cv), cv.description()
@@ -91,7 +91,7 @@ def kind_figure_svg(kind: str) -> bytes:
 
     from gradekit.bank.schema import load_problem
     from gradekit.bank.starter import starter
-    from gradekit.sampling import variant
+    from gradekit.solving.sampling import variant
 
     with tempfile.TemporaryDirectory() as tmp:
         f = Path(tmp) / f"{kind}.yaml"

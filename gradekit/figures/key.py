@@ -9,20 +9,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from gradekit import units
-from gradekit.figures.assignment import (
-    FIT,
-    PT_PER_M,
-    SIG,
-    arrow_len,
-    com_name,
-    driver_key,
-    force_text,
-    heading,
-    nice,
-    sense,
-    torque_arc,
-    torque_text,
-)
 from gradekit.figures.canvas import (
     BLACK,
     BLUE,
@@ -39,10 +25,24 @@ from gradekit.figures.canvas import (
     seg_distance,
 )
 from gradekit.figures.mech import BAR, PIN, com_marker, draw_linkage
+from gradekit.figures.sheet import (
+    FIT,
+    PT_PER_M,
+    SIG,
+    arrow_len,
+    com_name,
+    driver_key,
+    force_text,
+    heading,
+    nice,
+    sense,
+    torque_arc,
+    torque_text,
+)
 from gradekit.mechanics.forces import AppliedForce, Member
 from gradekit.mechanics.model import Linkage, Prismatic, same_point
 from gradekit.numbers import fmt
-from gradekit.pipeline import CaseResult, Result
+from gradekit.solving.pipeline import CaseResult, Result
 
 FONT_FAMILY = FONT
 
@@ -340,7 +340,7 @@ def torque_cycle_plot(result: Result, n: int = 72) -> Plot:
     import numpy as np
     from matplotlib.figure import Figure
 
-    from gradekit.pipeline import solve_many
+    from gradekit.solving.pipeline import solve_many
 
     pr = result.problem
     theta = pr.inputs["theta"]

@@ -16,8 +16,8 @@ from gradekit.grading.exports import DEFAULT_EXPORTS, GradedClass, choose_export
 from gradekit.grading.feedback import md_cell
 from gradekit.grading.integrity import IntegrityFlag, find_copies
 from gradekit.grading.reader import IdIndex, KeyIndex, Submission, read_file, special_kind
-from gradekit.keys import KeyEntry, PartialCredit
 from gradekit.roster import Student
+from gradekit.solving.keys import KeyEntry, PartialCredit
 
 MARKER = ".gradekit-output"
 log = logging.getLogger(__name__)

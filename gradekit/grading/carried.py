@@ -1,6 +1,6 @@
 """Error carried forward in grading: credit for later answers that follow from a student's own earlier ones.
 
-`gradekit.carry` does the mechanics (which answers follow from which, each later answer recomputed
+`gradekit.solving.carry` does the mechanics (which answers follow from which, each later answer recomputed
 from the student's submitted upstream values). This module applies it to graded submissions: for
 each problem with a carry credit, an answer that is wrong against the key but right from the
 student's own wrong upstream values earns ``credit`` × its points and keeps the `Carried` record,
@@ -13,7 +13,7 @@ import dataclasses
 from collections.abc import Callable, Mapping, Sequence
 
 from gradekit.grading.compare import AnswerResult, StudentGrade, problem_scores
-from gradekit.keys import KeyEntry
+from gradekit.solving.keys import KeyEntry
 
 REL = 1e-9  # a frozen key and the re-solved variant agree to this (else the variant is not the student's)
 
@@ -22,7 +22,7 @@ REL = 1e-9  # a frozen key and the re-solved variant agree to this (else the var
 class CarryForward:
     """What carried credit needs: each student's solved variants and each problem's credit.
 
-    ``variants[student][label]`` is a `gradekit.sampling.Variant` (its ``result`` solved in the
+    ``variants[student][label]`` is a `gradekit.solving.sampling.Variant` (its ``result`` solved in the
     class batch); ``credit[label]`` the fraction of an answer's points a carried answer earns
     (problems absent or at 0 are not carried). `check` compares the keys graded against with the
     variants first: where they differ (the bank changed since the keys were frozen), that student's
@@ -56,7 +56,7 @@ class CarryForward:
     def limits(self) -> list[tuple[str, str]]:
         """(answer key, why) for each later answer (inertia, forces, totals) of a carried problem that
         cannot be carried, or only in part, as the problem's model says (read off one student's variant)."""
-        from gradekit import carry
+        from gradekit.solving import carry
 
         out = []
         for label, credit in self.credit.items():
@@ -107,7 +107,7 @@ class CarryForward:
 def _credited(label: str, result, rows: list[AnswerResult]) -> dict[int, object]:
     """Row index → `Carried`, for the rows of one problem wrong against the key and right from the
     student's own upstream answers (each answer's tolerance, the instructor's overrides included)."""
-    from gradekit import carry
+    from gradekit.solving import carry
 
     short = [r.entry.key[len(label) + 1:] for r in rows]
     submitted = {s: r.value for s, r in zip(short, rows, strict=True) if r.value is not None}

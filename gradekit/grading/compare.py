@@ -11,8 +11,8 @@ import numpy as np
 
 from gradekit.errors import GradekitError
 from gradekit.grading.reader import Answer, Issue, Submission
-from gradekit.keys import KeyEntry, Mistake, PartialCredit, half_widths, tolerance_columns, within, wrapped
 from gradekit.roster import Student
+from gradekit.solving.keys import KeyEntry, Mistake, PartialCredit, half_widths, tolerance_columns, within, wrapped
 from gradekit.units import factor
 
 _DEG = 180.0 / math.pi
@@ -68,9 +68,9 @@ class AnswerResult(NamedTuple):
     ``diagnosis`` is the catalogued mistake that explains a wrong answer best (for the instructor,
     and for feedback with ``--reveal``); ``method_diagnosis`` is that mistake when it is one of
     method (`METHOD_MISTAKES`), the only kind feedback without ``--reveal`` names. ``carried`` is the
-    `gradekit.carry.Carried` a wrong answer matched when graded with carried-forward credit (its
+    `gradekit.solving.carry.Carried` a wrong answer matched when graded with carried-forward credit (its
     ``points`` are then the carried share). ``partial``: not correct, but within the wider band of the
-    assignment's partial credit (`gradekit.keys.PartialCredit`), its ``points`` that share.
+    assignment's partial credit (`gradekit.solving.keys.PartialCredit`), its ``points`` that share.
     """
 
     entry: KeyEntry
@@ -84,7 +84,7 @@ class AnswerResult(NamedTuple):
     message: str = ""
     error: float | None = None  # answer − key in the key's unit, wrapped at a full turn for an angle
     method_diagnosis: Mistake | None = None
-    carried: object | None = None  # gradekit.carry.Carried
+    carried: object | None = None  # gradekit.solving.carry.Carried
     band: float | None = None  # the half-width of the acceptance band around the key, in the key's unit
     partial: bool = False  # outside the band, within the assignment's wider band of partial credit
 

@@ -39,7 +39,7 @@ from operator import attrgetter
 import numpy as np
 
 from gradekit.grading.compare import StudentGrade
-from gradekit.keys import KeyEntry, half_widths
+from gradekit.solving.keys import KeyEntry, half_widths
 
 KEY_MATCH = "matches classmate's key"
 SHARED_WRONG = "shares wrong answers"
@@ -199,7 +199,7 @@ def _clusters(
 
 
 def _bands(tolerances: list, values: np.ndarray) -> np.ndarray:
-    """Each key value's band (`gradekit.keys.half_widths`, each entry's floor resolved in its ``abs``)."""
+    """Each key value's band (`gradekit.solving.keys.half_widths`, each entry's floor resolved in its ``abs``)."""
     return half_widths(
         values,
         np.array([t.rel for t in tolerances], float),

@@ -26,9 +26,9 @@ from gradekit.errors import GradekitError
 from gradekit.grading.compare import StudentGrade, grade_student
 from gradekit.grading.feedback import feedback_pages
 from gradekit.grading.reader import EXPECTED, IdIndex, KeyIndex, Submission, read_file
-from gradekit.keys import KeyEntry
 from gradekit.numbers import fmt
 from gradekit.roster import Student, read_roster, safe_names
+from gradekit.solving.keys import KeyEntry
 
 log = logging.getLogger(__name__)
 

@@ -23,17 +23,17 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from gradekit import units
-from gradekit.assembly import Context
 from gradekit.bank import expr
 from gradekit.bank.model import Parameter, Problem
 from gradekit.errors import GradekitError, SamplingError
 from gradekit.mechanics.forces import VW_LIMIT
 from gradekit.mechanics.mechanisms import KINDS
 from gradekit.mechanics.model import GROUND, Prismatic
-from gradekit.mistakes import mistakes_many
-from gradekit.parameters import published_values, round_display, sig_round
-from gradekit.pipeline import Result, ResultBatch, solve_many
-from gradekit.tolerances import ARM_MIN
+from gradekit.solving.assembly import Context
+from gradekit.solving.mistakes import mistakes_many
+from gradekit.solving.parameters import published_values, round_display, sig_round
+from gradekit.solving.pipeline import Result, ResultBatch, solve_many
+from gradekit.solving.tolerances import ARM_MIN
 
 MAX_DRAWS = 400
 ROUND_ROWS = 1024  # candidate rows per batched solve when few seeds are pending (fewer pay its fixed cost for little)
@@ -197,7 +197,7 @@ def torque_arms(problem: Problem, batch: ResultBatch) -> dict[str, np.ndarray]:
     """For each torque answer of a crank-driven problem (``driver`` or a superposition part ``driver@g``),
     its share of the moment the largest force of its force polygon would have at the crank pin,
     |T| / (F_max · r): a graphical torque is the pin force's component across the crank, read off that
-    polygon, times the pin radius r (`gradekit.tolerances.ARM_MIN`). A total is the sum of its parts,
+    polygon, times the pin radius r (`gradekit.solving.tolerances.ARM_MIN`). A total is the sum of its parts,
     each read off its own polygon: its share is of the sum of the parts' moments."""
     out: dict[str, np.ndarray] = {}
     if problem.driver != "crank":

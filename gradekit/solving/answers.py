@@ -12,13 +12,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from gradekit import quantities, units
+from gradekit import units
 from gradekit.bank import expr
 from gradekit.bank.model import DEFINED, Problem
 from gradekit.errors import ConditioningError, GeometryError
 from gradekit.mechanics.forces import Solution, Solutions, frame_reaction, spot_point
 from gradekit.mechanics.model import Batched, Refusals
-from gradekit.quantities import BY_NAME as Q
+from gradekit.solving import quantities
+from gradekit.solving.quantities import BY_NAME as Q
 
 
 @dataclass
@@ -55,7 +56,10 @@ class Answers(list):
 
 
 @dataclass
-class Answer:
+class SolvedAnswer:
+    """One answer of one solved variant: its value in the answer's unit, how it is asked and graded (the
+    grader's submitted answer is `gradekit.grading.reader.Answer`)."""
+
     key: str
     value: float
     unit: str
@@ -428,7 +432,7 @@ class ResultBatch(Batched):
             for c in self.cases
         ]
         answers = Answers(
-            Answer(
+            SolvedAnswer(
                 a.key,
                 float(a.value[i]),
                 a.unit,

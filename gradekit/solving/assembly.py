@@ -17,7 +17,7 @@ from gradekit.bank.model import Problem, Value
 from gradekit.errors import ProblemError
 from gradekit.mechanics.mechanisms import KINDS, Motion, build_many
 from gradekit.mechanics.model import Analysis, Linkage, Load, MassProps, MotionLoad, Spot
-from gradekit.parameters import rows_of
+from gradekit.solving.parameters import rows_of
 
 SI = {
     "stiffness": "N/m",

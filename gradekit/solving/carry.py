@@ -1,6 +1,6 @@
 """Error carried forward: which answers follow from which, and each later answer recomputed from a student's own.
 
-A solved variant (`gradekit.answers.Result`) knows more than its answers: which bodies carry
+A solved variant (`gradekit.solving.answers.Result`) knows more than its answers: which bodies carry
 inertia loads, what each load does to every unknown (the assembled system A·x + B = 0 of
 `gradekit.mechanics.forces.Solution`), which answers are kinematic quantities of which body. From
 that, without anything written per problem:
@@ -22,7 +22,7 @@ student left them blank, from their kinematics. A graphical problem's forces fol
 equivalent offset force, so its couple comes from the offset h (with the sense of their α) before α.
 
 Whether a later answer matches its carried reference is `Carried.accepts` (the answer's
-`gradekit.keys.Tolerance`); `credited` lists the answers wrong against the key that match theirs.
+`gradekit.solving.keys.Tolerance`); `credited` lists the answers wrong against the key that match theirs.
 
 Batch first: `plan_many` does the work for every variant of a solved batch at once (one batched
 solve for the unit responses, the stems' maps read off `flat_results`, the numeric dependence
@@ -39,12 +39,22 @@ from functools import lru_cache
 
 import numpy as np
 
-from gradekit import quantities, units
-from gradekit.answers import Answer, AnswerBatch, CaseBatch, Result, ResultBatch, flat_results, group_label, wrap
-from gradekit.keys import Tolerance
+from gradekit import units
 from gradekit.mechanics.forces import Solutions, spot_point
 from gradekit.mechanics.model import Refusals
 from gradekit.numbers import fmt
+from gradekit.solving import quantities
+from gradekit.solving.answers import (
+    AnswerBatch,
+    CaseBatch,
+    Result,
+    ResultBatch,
+    SolvedAnswer,
+    flat_results,
+    group_label,
+    wrap,
+)
+from gradekit.solving.keys import Tolerance
 
 STAGES = ("given", "kinematics", "inertia", "forces", "total")
 _parse = lru_cache(maxsize=1024)(quantities.parse)  # the same few of: texts for every student
@@ -405,7 +415,7 @@ class BatchPlan:
                     asked.component or "mag", a.key)
         self._memo: dict[bytes, dict[str, Dependency]] = {}
 
-    def at(self, i: int, answers: list[Answer] | None = None) -> Plan:
+    def at(self, i: int, answers: list[SolvedAnswer] | None = None) -> Plan:
         """Variant *i* (its answers from ``batch.take(i)`` unless given)."""
         return Plan(self, i, list(answers if answers is not None else self.batch.take(i).answers))
 
@@ -486,7 +496,7 @@ class BatchPlan:
 class Plan:
     """What can be carried in one solved variant, and the recomputation from a student's values."""
 
-    def __init__(self, batch: BatchPlan, index: int, answers: list[Answer]) -> None:
+    def __init__(self, batch: BatchPlan, index: int, answers: list[SolvedAnswer]) -> None:
         self.batch, self.index, self.answers = batch, index, answers
         self.problem = batch.problem
         self.dependencies = batch.dependencies(index)
@@ -594,7 +604,7 @@ class Plan:
             out[body] = (np.array([force[0], force[1], couple]), used | more)
         return out
 
-    def _value(self, a: Answer, dep: Dependency, case: _Case, given, loads):
+    def _value(self, a: SolvedAnswer, dep: Dependency, case: _Case, given, loads):
         """(value in SI, keys used) of one carriable answer, or None when nothing upstream was given."""
         i, bp = self.index, self.batch
         asked = _parse(a.of)

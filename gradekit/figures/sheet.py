@@ -1,4 +1,4 @@
-"""The assignment figure: one student's mechanism with the given values, never a solved answer."""
+"""The sheet's figure: one student's mechanism with the given values, never a solved answer."""
 
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ from gradekit.figures.mech import BAR, PIN, com_marker, draw_linkage, mech_exten
 from gradekit.mechanics.mechanisms import KINDS
 from gradekit.mechanics.model import GROUND, Prismatic
 from gradekit.numbers import fmt
-from gradekit.pipeline import CaseResult, Result
+from gradekit.solving.pipeline import CaseResult, Result
 
 PT_PER_M = 72.0 / 0.0254  # paper points per metre
 FIT = (300.0, 220.0)  # drawing box of a figure not to scale, in points

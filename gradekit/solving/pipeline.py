@@ -1,8 +1,8 @@
 """From a problem and parameter values (one variant, or a batch) to the solved answers.
 
-The phases, each a module: parameters (`gradekit.parameters`: derived values, rounding) →
-assembly (`gradekit.assembly`: problem + values → linkage and loads, SI) → the numeric core
-(`gradekit.mechanics`: kinematics and forces, batched) → answers (`gradekit.answers`: named
+The phases, each a module: parameters (`gradekit.solving.parameters`: derived values, rounding) →
+assembly (`gradekit.solving.assembly`: problem + values → linkage and loads, SI) → the numeric core
+(`gradekit.mechanics`: kinematics and forces, batched) → answers (`gradekit.solving.answers`: named
 results, answer values and scales). The batched path (`solve_many`) is the only path: one
 variant is a batch of one (`solve_problem`). Refused variants of a batch (cannot be assembled,
 too ill-conditioned, a derived value undefined) are masked with their reasons, never raised; one
@@ -14,8 +14,11 @@ from __future__ import annotations
 import numpy as np
 
 from gradekit import units
-from gradekit.answers import (  # noqa: F401 (the pipeline's records, re-exported)
-    Answer,
+from gradekit.bank.model import Problem
+from gradekit.errors import ProblemError
+from gradekit.mechanics import forces
+from gradekit.mechanics.model import Refusals
+from gradekit.solving.answers import (  # noqa: F401 (the pipeline's records, re-exported)
     AnswerBatch,
     Answers,
     CaseBatch,
@@ -23,14 +26,11 @@ from gradekit.answers import (  # noqa: F401 (the pipeline's records, re-exporte
     Result,
     ResultBatch,
     Results,
+    SolvedAnswer,
     flat_results,
 )
-from gradekit.assembly import SI, Context, build_analysis, build_linkage, length_formatter  # noqa: F401
-from gradekit.bank.model import Problem
-from gradekit.errors import ProblemError
-from gradekit.mechanics import forces
-from gradekit.mechanics.model import Refusals
-from gradekit.parameters import fill, fill_many, published_values, round_display, sig_round  # noqa: F401
+from gradekit.solving.assembly import SI, Context, build_analysis, build_linkage, length_formatter  # noqa: F401
+from gradekit.solving.parameters import fill, fill_many, published_values, round_display, sig_round  # noqa: F401
 
 
 def _solve_case(problem: Problem, values: dict, n: int, name: str | None, bad: Refusals) -> CaseBatch:

@@ -16,8 +16,8 @@ import numpy as np
 from gradekit import units
 from gradekit.bank.model import Problem
 from gradekit.errors import GradekitError
-from gradekit.keys import Mistake
-from gradekit.pipeline import ResultBatch, solve_many
+from gradekit.solving.keys import Mistake
+from gradekit.solving.pipeline import ResultBatch, solve_many
 
 
 @dataclass(frozen=True)
@@ -122,7 +122,7 @@ class _Found:
 def catalogued_mistakes(v) -> dict[str, list[Mistake]]:
     """Re-solve one variant with each catalogued mistake; map answer key -> mistakes that change it.
 
-    *v* is a `gradekit.sampling.Variant`: its problem, raw values, and the batch it was solved in
+    *v* is a `gradekit.solving.sampling.Variant`: its problem, raw values, and the batch it was solved in
     (``v.batch``, ``v.index``; solved here when it has none).
     """
     batch, i, raw = getattr(v, "batch", None), getattr(v, "index", 0), getattr(v, "batch_values", None)

@@ -13,18 +13,19 @@ from __future__ import annotations
 import functools
 import math
 
-from gradekit import quantities, units
+from gradekit import units
 from gradekit.errors import GradekitError
-from gradekit.keys import Tolerance
+from gradekit.solving import quantities
+from gradekit.solving.keys import Tolerance
 
-KINDS = ("angle", "force", "force-component", "torque", "kinematic", "length")
+ANSWER_KINDS = ("angle", "force", "force-component", "torque", "kinematic", "length")
 SECTION = "_kind_defaults"
 
 
 def answer_kind(of: str, unit: str) -> str:
     """The kind of an answer: angle, torque, force, force-component, kinematic or length.
 
-    The quantity table (`gradekit.quantities`) says it; where it leaves it to the unit (the driver,
+    The quantity table (`gradekit.solving.quantities`) says it; where it leaves it to the unit (the driver,
     a parameter, a derived expression), the unit does.
     """
     asked = quantities.parse(of)
@@ -75,7 +76,7 @@ def defaults() -> dict[tuple[str, str], Tolerance]:
             f"(python benchmarks/derive_tolerances.py), got {type(exc).__name__}: {exc}"
         ) from None
     for m in ("analytical", "graphical"):  # a kind no bank answer has yet: that of the other method, or the loosest
-        for k in KINDS:
+        for k in ANSWER_KINDS:
             if (m, k) not in out:
                 other = [t for (mm, kk), t in out.items() if kk == k] or [
                     t for (mm, kk), t in out.items() if (kk == "angle") == (k == "angle")

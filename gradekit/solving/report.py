@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from gradekit import units
 from gradekit.numbers import fmt
-from gradekit.pipeline import Result
+from gradekit.solving.pipeline import Result
 
 # SI unit of a flat result -> the problem's display dimension
 _DISPLAY = {

@@ -3,8 +3,8 @@
 A row states the quantity's name, what goes in its brackets, its SI unit (of the value, or of each
 component of a vector), whether it is a vector (``.x``, ``.y``, ``.mag``, ``.angle``), its answer
 kind (which measured tolerance default applies) and how people read it. Validation
-(`gradekit.bank.schema`), the producer (`gradekit.answers.flat_results`), the tolerance defaults
-(`gradekit.tolerances.answer_kind`), carried-forward credit (`gradekit.carry`: a row's stage) and the
+(`gradekit.bank.schema`), the producer (`gradekit.solving.answers.flat_results`), the tolerance defaults
+(`gradekit.solving.tolerances.answer_kind`), carried-forward credit (`gradekit.solving.carry`: a row's stage) and the
 documentation read this table.
 
 Any quantity may carry ``@group`` (one superposition part: a load's name, ``gravity`` or
@@ -117,7 +117,7 @@ def parse(of: str) -> Asked | None:
 
 
 def name_of(asked: Asked) -> str:
-    """The result name `gradekit.answers.flat_results` registers for *asked* (component included)."""
+    """The result name `gradekit.solving.answers.flat_results` registers for *asked* (component included)."""
     stem = asked.quantity.name + (f"[{asked.args}]" if asked.quantity.brackets else "")
     return stem + (f"@{asked.group}" if asked.group else "") + (f".{asked.component}" if asked.component else "")
 
