@@ -190,7 +190,7 @@ def test_outputs_are_written_and_lms_imports_have_standard_columns(batch) -> Non
     moodle = rows(out / "moodle.csv")
     assert moodle[0] == ["ID number", "Email address", "HW 3"]
     assert moodle[5] == ["1005", "1005@uni.edu", "2"]
-    assert (out / "histogram.png").read_bytes().startswith(b"\x89PNG")
+    assert (out / "histogram.svg").read_text(encoding="utf-8").startswith("<svg ")
     assert len(list((out / "feedback").glob("*.html"))) == 10
     report = (out / "report.md").read_text()
     assert "| p1.T | 67 % (6/9) | 8 | sign flipped (1) |" in report
@@ -267,4 +267,4 @@ def test_class_wide_file_moodle_folders_and_output_inside_submissions(tmp_path: 
     # a second run into the same output folder skips it and reads the same files
     again = grade_batch(make_keys(), students, sub, out, histogram=False)
     assert again.files == (*result.files, FileRecord(f"{out}/", "ignored", "folder not read"))
-    assert not (out / "histogram.png").exists()
+    assert not (out / "histogram.svg").exists()

@@ -231,7 +231,7 @@ def test_a_title_with_dollar_signs_is_text_everywhere(course, tmp_path, title):
     (subs / "1.csv").write_text("\n".join(["student_id,key,value,unit", *_rows(keys, "1")]) + "\n", encoding="utf-8")
     result = _grade(root, asg, subs, tmp_path / "out")
     assert result.exit_code == 0, result.output
-    assert (tmp_path / "out" / "histogram.png").stat().st_size > 1000
+    assert (tmp_path / "out" / "histogram.svg").stat().st_size > 1000
     report = (tmp_path / "out" / "report.md").read_text(encoding="utf-8")
     assert title.replace("$", "") in report.replace("\\", "").replace("$", "")
 

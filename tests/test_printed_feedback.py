@@ -1,7 +1,7 @@
 """Feedback, reports and LMS exports as written to disk: exactly true, never a key handed out.
 
 Every check reads the files `grade_batch` writes (feedback Markdown/HTML, report.md, canvas.csv,
-moodle.csv, histogram.png) or what the CLI prints.
+moodle.csv, histogram.svg) or what the CLI prints.
 """
 
 from __future__ import annotations
@@ -123,30 +123,32 @@ def test_histogram_counts_perfect_scores(graded, tmp_path):
     assert d4.total == d4.max_points
     from gradekit.grading.exports import write_histogram
 
-    png = tmp_path / "h.png"
-    counts = _histogram_counts(write_histogram, png, [100.00000000000001, 100.0, 55.0])
+    svg = tmp_path / "h.svg"
+    counts = _histogram_counts(write_histogram, svg, [100.00000000000001, 100.0, 55.0])
     assert counts[-1] == 2 and sum(counts) == 3
 
 
+def test_histogram_title_is_text(tmp_path):
+    """The instructor's title reaches the SVG as text: markup in it is escaped, the file still parses."""
+    import xml.etree.ElementTree as ET
+
+    from gradekit.grading.exports import write_histogram
+
+    title = '<script>alert(1)</script> & "HW" $5'
+    write_histogram(tmp_path / "h.svg", [10.0, 95.0], title)
+    root = ET.parse(tmp_path / "h.svg").getroot()
+    texts = [e.text for e in root.iter() if e.text]
+    assert title in texts and not list(root.iter("{http://www.w3.org/2000/svg}script"))
+    assert "0–10 %: 0, 10–20 %: 1" in root.find("{http://www.w3.org/2000/svg}desc").text
+
+
 def _histogram_counts(write, path, percents):
-    """The bar heights of the histogram `write_histogram` draws for *percents*."""
-    from matplotlib.figure import Figure
+    """The bar heights of the histogram `write_histogram` draws for *percents*, read from the SVG."""
+    import xml.etree.ElementTree as ET
 
-    seen = {}
-    original = Figure.savefig
-
-    def spy(self, *a, **k):
-        ax = self.axes[0]
-        seen["bars"] = [p.get_height() for p in ax.patches]
-        return original(self, *a, **k)
-
-    Figure.savefig = spy
-    try:
-        write(path, percents, "t")
-    finally:
-        Figure.savefig = original
-    assert path.stat().st_size > 0
-    return seen["bars"]
+    write(path, percents, "t")
+    bars = [e for e in ET.parse(path).iter("{http://www.w3.org/2000/svg}rect") if e.get("class") == "bar"]
+    return [int(e.get("data-count")) for e in bars]
 
 
 def test_solve_with_assignment_prints_the_sheets_values(tmp_path):

@@ -347,7 +347,7 @@ def grade_batch(
 
     Writes ``OUT/grades.csv``, ``OUT/canvas.csv``, ``OUT/moodle.csv``,
     ``OUT/feedback/<safe id>.md`` and ``.html`` per roster student, ``OUT/report.md`` and
-    ``OUT/histogram.png``. Everything is written into a hidden folder beside OUT first and moved
+    ``OUT/histogram.svg``. Everything is written into a hidden folder beside OUT first and moved
     in only when complete (`StagedFolder`): after an error or Ctrl-C, OUT is still the previous
     complete run; feedback of students no longer on the roster is removed. The submissions folder
     is only read. A bad submission never raises: it scores what can be read and its messages go
@@ -361,7 +361,7 @@ def grade_batch(
         assignment_title: the assignment's name (the LMS grade column and the headings).
         reveal: show the correct values in the feedback.
         problem_titles: display names per ``KeyEntry.problem`` (defaults to the problem id).
-        histogram: draw ``histogram.png`` (matplotlib).
+        histogram: draw ``histogram.svg``.
         hint: what feedback without *reveal* says of a wrong answer: ``direction`` or ``band``.
         carry: carried-forward credit (`gradekit.grading.carried.CarryForward`), applied to each
             grade before its feedback is written; grades.csv then counts carried answers and the

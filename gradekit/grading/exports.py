@@ -159,7 +159,7 @@ def _feedback(root: Path, g: GradedClass, chosen: Sequence[str], pages: _Pages) 
 def _report(root: Path, g: GradedClass, chosen: Sequence[str], pages: _Pages) -> list[Path]:
     text = report_markdown(
         assignment_title=g.assignment_title, grades=g.grades, files=g.files, flags=g.flags,
-        histogram="histogram.png" if "histogram" in chosen else None, carried=g.carried,
+        histogram="histogram.svg" if "histogram" in chosen else None, carried=g.carried,
         carry_limits=g.carry_limits, attention=g.attention,
     )
     write_text(root / "report.md", text)
@@ -167,9 +167,9 @@ def _report(root: Path, g: GradedClass, chosen: Sequence[str], pages: _Pages) ->
 
 
 def _histogram(root: Path, g: GradedClass, chosen: Sequence[str], pages: _Pages) -> list[Path]:
-    write_histogram(root / "histogram.png", [x.percent for x in g.grades if x.submission is not None],
+    write_histogram(root / "histogram.svg", [x.percent for x in g.grades if x.submission is not None],
                     g.assignment_title)
-    return [root / "histogram.png"]
+    return [root / "histogram.svg"]
 
 
 def _zip(file: str, lms: str, member: Callable[[StudentGrade], str | None]):
@@ -192,7 +192,7 @@ EXPORTS: dict[str, Export] = {
         Export("moodle", "moodle.csv", "Moodle grade import (Grades > Import > CSV file)", _moodle),
         Export("feedback", "feedback/<id>.md, .html", "each student's feedback", _feedback),
         Export("report", "report.md", "the instructor's report", _report),
-        Export("histogram", "histogram.png", "the score histogram (the report shows it)", _histogram),
+        Export("histogram", "histogram.svg", "the score histogram (the report shows it)", _histogram),
         Export("moodle-feedback-zip", "moodle-feedback.zip",
                "feedback for Moodle's \"Upload multiple feedback files in a zip\"",
                _zip("moodle-feedback.zip", "Moodle", moodle_feedback_member)),

@@ -48,7 +48,7 @@ DOWNLOADS = {  # name -> (path below the export folder, media type)
     "canvas.csv": ("graded/canvas.csv", "text/csv; charset=utf-8"),
     "moodle.csv": ("graded/moodle.csv", "text/csv; charset=utf-8"),
     "report.md": ("graded/report.md", "text/markdown; charset=utf-8"),
-    "histogram.png": ("graded/histogram.png", "image/png"),
+    "histogram.svg": ("graded/histogram.svg", "image/svg+xml"),
     "attempts.csv": ("attempts.csv", "text/csv; charset=utf-8"),
     "online.csv": ("online.csv", "text/csv; charset=utf-8"),
     "feedback.zip": ("graded/feedback", "application/zip"),
