@@ -138,14 +138,39 @@ def md_cell(text: str) -> str:
             .replace("[", "\\[").replace("]", "\\]"))
 
 
-def markdown_row(row: FeedbackRow) -> str:
-    """A feedback row as a Markdown table row."""
-    return "| " + " | ".join(map(md_cell, row.cells)) + " |"
+class Escaped:
+    """The cell texts of one class's feedback, each distinct one escaped once for Markdown and once for
+    HTML. Most cells repeat from student to student (an answer's key, the verdicts, the points, the
+    hints): a class of 3,000 has about a quarter as many distinct cells as cells. One per class: it
+    holds every distinct text it was given."""
+
+    def __init__(self) -> None:
+        self._md: dict[str, str] = {}
+        self._html: dict[str, str] = {}
+
+    def md(self, text: str) -> str:
+        """*text* as `md_cell` escapes it."""
+        got = self._md.get(text)
+        if got is None:
+            got = self._md[text] = md_cell(text)
+        return got
+
+    def html(self, text: str) -> str:
+        """*text* as `html.escape` escapes it."""
+        got = self._html.get(text)
+        if got is None:
+            got = self._html[text] = html.escape(text)
+        return got
 
 
-def html_row(row: FeedbackRow) -> str:
-    """A feedback row as an HTML table row, its class the verdict's."""
-    text = "</td><td>".join(map(html.escape, row.cells))
+def markdown_row(row: FeedbackRow, escaped: Escaped | None = None) -> str:
+    """A feedback row as a Markdown table row (*escaped*: the class's escaped cells)."""
+    return "| " + " | ".join(map(md_cell if escaped is None else escaped.md, row.cells)) + " |"
+
+
+def html_row(row: FeedbackRow, escaped: Escaped | None = None) -> str:
+    """A feedback row as an HTML table row, its class the verdict's (*escaped*: the class's escaped cells)."""
+    text = "</td><td>".join(map(html.escape if escaped is None else escaped.html, row.cells))
     return f'<tr class="{_CSS_CLASS[row.verdict]}"><td>{text}</td></tr>'
 
 
@@ -157,11 +182,13 @@ _CSS = (
 
 
 def feedback_pages(
-    grade: StudentGrade, titles: Mapping[str, str], assignment_title: str, reveal: bool, hint: str = "direction"
+    grade: StudentGrade, titles: Mapping[str, str], assignment_title: str, reveal: bool, hint: str = "direction",
+    escaped: Escaped | None = None,
 ) -> tuple[str, str]:
     """One student's feedback as (Markdown, standalone HTML page), both from one `feedback_row` per
-    answer; every text is escaped (students wrote some of it). The graded file is named as the
-    student uploaded it, never by its path on the instructor's disk."""
+    answer; every text is escaped (students wrote some of it), through *escaped* when the pages of a
+    whole class are made. The graded file is named as the student uploaded it, never by its path on
+    the instructor's disk."""
     e = html.escape
     columns = COLUMNS + (("Correct answer",) if reveal else ())
     md_head = "| " + " | ".join(columns) + " |"
@@ -200,8 +227,8 @@ def feedback_pages(
         name = titles.get(problem.problem, problem.problem)
         earned = f"{fmt(problem.points)} / {fmt(problem.max_points)}"
         mine = rows.get(problem.problem, [])
-        md += [f"## {md_cell(name)}: {earned}", "", md_head, md_rule, *map(markdown_row, mine), ""]
-        page += [f"<h2>{e(name)}: {earned}</h2>", html_head, *map(html_row, mine), "</table>"]
+        md += [f"## {md_cell(name)}: {earned}", "", md_head, md_rule, *(markdown_row(r, escaped) for r in mine), ""]
+        page += [f"<h2>{e(name)}: {earned}</h2>", html_head, *(html_row(r, escaped) for r in mine), "</table>"]
     if grade.issues:
         issues = [str(replace(i, path=submitted_name(i.path))) for i in grade.issues]
         md += ["## Problems reading your file", "", *(f"- {md_cell(i)}" for i in issues), ""]
