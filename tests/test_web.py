@@ -46,10 +46,12 @@ def test_a_student_is_graded_at_once_uses_up_attempts_uploads_and_the_instructor
         _sign_in(page, server.url, "1001", codes["1001"].lower())  # case forgiven
         assert page.url.endswith("/student")
         assert "Ada Lovelace" in page.inner_text("main")
+        assert page.locator("#no-feedback").is_visible() and "not graded" not in page.inner_text("main")  # nothing yet
         page.fill(f'input[name="value:{a}"]', a_right)
         page.fill(f'input[name="value:{b}"]', b_wrong)
         page.click("#submit")
         assert _row(page, a).locator(".verdict").inner_text() == "within the tolerance"
+        assert page.locator("#no-feedback").count() == 0 and "right" in page.inner_text(".feedback")
         assert _row(page, b).locator(".verdict").inner_text() == "not within the tolerance"
         assert _row(page, b).locator(".attempts-left").inner_text() == "1 of 2"
         assert key_rows(course, "1001")[1]["value"] not in page.content()  # never the key before the due date

@@ -179,7 +179,10 @@ class Service:
             rows.append(AnswerState(e.key, e.description, e.unit, e.sign_convention, e.points, precision(e), value,
                                     unit, used[e.key], left, verdict, refused[e.key]))
         reveal = self.reveal(now)
-        return StudentPage(tuple(rows), grade, score, self.closed(now), reveal, self.course.feedback(grade, reveal))
+        # before a first answer there is nothing to explain (every row would read "not graded"), unless
+        # the keys are shown after the due date
+        feedback = self.course.feedback(grade, reveal) if current or reveal else ""
+        return StudentPage(tuple(rows), grade, score, self.closed(now), reveal, feedback)
 
     def submit(self, student_id: str, form_id: str, typed: Mapping[str, tuple[str, str]], source: str,
                now: float | None = None) -> tuple[Receipt, StudentPage]:
