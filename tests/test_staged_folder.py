@@ -6,7 +6,10 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from gradekit.csvsafe import StagedFolder, _under
+import pytest
+
+from gradekit.csvsafe import StagedFolder
+from gradekit.errors import GradekitError
 
 
 def _run(out: Path, files: dict[str, str]) -> list[str]:
@@ -36,8 +39,16 @@ def test_a_new_folder_and_a_known_one(tmp_path):
     assert not list(tmp_path.glob(".out.partial-*"))  # the staging folder is gone
 
 
-def test_under_looks_at_every_ancestor():
-    folders = {"students", "keys/a"}
-    assert _under("students/s1/x.pdf", folders) and _under("keys/a/b/c", folders)
-    assert not _under("students", folders) and not _under("keys/ab/c", folders) and not _under("keysx/a/b", folders)
-    assert not _under("a.csv", folders) and not _under("keys/b", folders)
+def test_a_new_folder_is_told_from_a_sibling_whose_name_it_begins(tmp_path):
+    """keys/a is new and moves in whole; keys/ab (a user's folder beside it) is neither inside it nor
+    replaced: a path is inside a folder only below a "/" (keys/ab/c is not under keys/a)."""
+    out = tmp_path / "out"
+    _run(out, {"a.csv": "1", "keys/k.pdf": "k"})
+    (out / "keys" / "ab").mkdir()
+    (out / "keys" / "ab" / "c").write_text("the user's")
+    second = {"a.csv": "2", "keys/k.pdf": "k", "keys/a/b/c": "new", "keys/ab/d": "d"}
+    assert _run(out, second) == sorted(second)
+    assert {k: _tree(out)[k] for k in second} == second and _tree(out)["keys/ab/c"] == "the user's"
+    with pytest.raises(GradekitError, match="keys/ab/c"):  # a file no run listed is never replaced
+        _run(out, {"a.csv": "3", "keys/ab/c": "x"})
+    assert _tree(out)["keys/ab/c"] == "the user's"
