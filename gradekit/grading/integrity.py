@@ -278,16 +278,6 @@ def answer_keys(keys: Sequence[KeyEntry], correlated: float = 0.7) -> AnswerKeys
     starts = np.searchsorted(key_ix[by_key], np.arange(len(names) + 1))
     problems = [keys[i].problem for i in by_key[starts[:-1]]]  # each key's first entry
     period = np.array([keys[i].tolerance.period for i in by_key[starts[1:] - 1]], float)  # each key's last entry
-    return _gathered(everyone, col, names, problems, period, key_ix, cols, values, bands, by_key, starts, correlated)
-
-
-def _gathered(
-    everyone: list[str], col: dict[str, int], names: list[str], problems: list[str], period: np.ndarray,
-    key_ix: np.ndarray, cols: np.ndarray, values: np.ndarray, bands: np.ndarray, by_key: np.ndarray,
-    starts: np.ndarray, correlated: float,
-) -> AnswerKeys:
-    """`AnswerKeys` of the entries' answer (*key_ix*, into *names*), student (*cols*, into *everyone*),
-    value and band; *by_key* orders the entries by answer (stable), each answer's run from *starts*."""
     trial_of = _clusters(names, problems, everyone, key_ix, cols, values, correlated)
     per_key = {}
     for a, idx in enumerate(np.split(by_key, starts[1:-1])):
