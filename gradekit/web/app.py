@@ -28,6 +28,7 @@ from starlette.responses import HTMLResponse, RedirectResponse, Response
 from starlette.routing import Route
 
 from gradekit.errors import GradekitError
+from gradekit.units import pretty
 from gradekit.web.access import Session, new_session, seal, unseal
 from gradekit.web.service import EXPORT_FOLDER, Service, open_service, utc
 
@@ -64,6 +65,7 @@ def _templates() -> jinja2.Environment:
         auto_reload=False,  # the templates are the installed package's: no stat() of each file per page
     )
     env.filters["pts"] = lambda x: f"{x:g}"
+    env.filters["unit"] = pretty  # N·m, lbf·in, ° as the sheet prints them (the input keeps what is typed)
     return env
 
 
