@@ -17,7 +17,6 @@ from gradekit.bank.model import Problem, Value
 from gradekit.errors import ProblemError
 from gradekit.mechanics.mechanisms import KINDS, Motion, build_many
 from gradekit.mechanics.model import Analysis, Linkage, Load, MassProps, MotionLoad, Spot
-from gradekit.solving.parameters import rows_of
 
 SI = {
     "stiffness": "N/m",
@@ -35,18 +34,16 @@ SI = {
 }
 
 
-def _evaluate(text: str, values: dict, n: int):
-    """An expression over (batched) parameter values: vectorised when numpy can, else per variant."""
-    try:
-        with np.errstate(all="ignore"):
-            out = expr.evaluate(text, values)
-        if np.ndim(out) in (0, 1) and np.isfinite(out).all():
-            return out
-    except Exception:  # math functions and comparisons take scalars only: evaluate per variant
-        pass
-    if n == 1 or not any(np.ndim(v) for v in values.values()):
-        return float(expr.evaluate(text, {k: float(np.ravel(v)[0]) for k, v in values.items()}))
-    return np.array([float(expr.evaluate(text, row)) for row in rows_of(values, n)])
+def _evaluate(text: str, values: dict):
+    """An expression over (batched) parameter values: a float, or an array of one per variant.
+
+    Raises:
+        ExprError: the expression has no value for some variant (the first such variant's reason).
+    """
+    rows = expr.evaluate_rows(text, values)
+    if rows.undefined.any():
+        raise expr.ExprError(rows.reason(int(np.flatnonzero(rows.undefined.reshape(-1))[0])))
+    return float(rows.value) if np.ndim(rows.value) == 0 else rows.value
 
 
 @dataclass
@@ -73,7 +70,7 @@ class Context:
                     line=pr.line(where),
                 ) from None
         try:
-            num = float(v) if not isinstance(v, str) else _evaluate(v, self.values, self.n)
+            num = float(v) if not isinstance(v, str) else _evaluate(v, self.values)
         except expr.ExprError as exc:
             raise ProblemError(str(exc), path=pr.path, field=where, line=pr.line(where)) from None
         return units.convert(num, pr.units[dim], SI[dim])

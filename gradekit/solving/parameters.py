@@ -6,7 +6,6 @@ evaluated from the drawn ones and rounded like every printed number (`round_disp
 
 from __future__ import annotations
 
-import ast
 import math
 
 import numpy as np
@@ -15,14 +14,6 @@ from gradekit.bank import expr
 from gradekit.bank.model import Parameter, Problem, order
 from gradekit.errors import ProblemError
 from gradekit.mechanics.model import Refusals
-
-
-def rows_of(values: dict, n: int) -> list[dict[str, float]]:
-    """The *n* variants of a batch of values (arrays or scalars), one dict of floats each."""
-    cols = [np.asarray(v, float)[:n].tolist() if np.ndim(v) else [float(v)] * n for v in values.values()]
-    if not values:
-        return [{} for _ in range(n)]
-    return [dict(zip(values, row, strict=True)) for row in zip(*cols, strict=True)]
 
 
 def _overrides(values: dict) -> dict:
@@ -62,33 +53,22 @@ def fill_many(problem: Problem, values: dict, n: int, bad: Refusals) -> dict[str
         p = problem.parameters[name]
         if not p.expr or name in values:
             continue
+        field = f"parameters.{name}.expr"
+        try:
+            rows = expr.evaluate_rows(p.expr, out)
+        except expr.ExprError as exc:
+            raise ProblemError(str(exc), path=problem.path, field=field) from None
+        for undefined, message in rows.checks:  # a variant refused earlier keeps its first reason
+            bad.add(undefined, lambda i, f=field, m=message: f"derived: {f}: {m(i)}")
         col = np.full(n, np.nan)
-        # Evaluated one variant at a time (with `math`, as `fill` does), once per distinct set of the
-        # values it reads (told apart by their bits, so -0.0 is not 0.0).
-        used = [k for k in _names(p.expr) if k in out]
-        given = rows_of({k: out[k] for k in used}, n)
-        bits = zip(*(out[k].view(np.int64).tolist() for k in used), strict=True) if used else iter([()] * n)
-        done: dict[tuple, float | str] = {}
-        for i, (row, key) in enumerate(zip(given, bits, strict=True)):
-            if bad.mask[i]:
-                continue
-            if key not in done:
-                try:
-                    done[key] = round_display(p, float(expr.evaluate(p.expr, row)))
-                except (expr.ExprError, ValueError, ZeroDivisionError, OverflowError) as exc:
-                    done[key] = str(exc)
-            v = done[key]
-            if isinstance(v, str):
-                bad.add(np.arange(n) == i, lambda _i, f=f"parameters.{name}.expr", e=v: f"derived: {f}: {e}")
-            else:
-                col[i] = v
+        derived = np.broadcast_to(np.asarray(rows.value, float), (n,))
+        for i in np.flatnonzero(~bad.mask):
+            try:
+                col[i] = round_display(p, float(derived[i]))
+            except (ValueError, OverflowError) as exc:  # a whole step of an infinite value
+                bad.add(np.arange(n) == i, lambda _i, f=field, e=str(exc): f"derived: {f}: {e}")
         out[name] = col
     return out
-
-
-def _names(text: str) -> list[str]:
-    """Every name an expression mentions (parameters, and functions or constants a parameter may shadow)."""
-    return sorted({node.id for node in ast.walk(expr.parse(text)) if isinstance(node, ast.Name)})
 
 
 def round_display(p: Parameter, v: float) -> float:
