@@ -1,8 +1,9 @@
 """Answers phase: solved batches → named results → each answer's value, unit and tolerance scale.
 
 `flat_results` names every quantity a mechanism reports (``F[1,2].mag``, ``aG[2].angle``,
-``driver``…; see ``of:`` in problem_bank/README.md) lazily, so only what a problem asks for is
-computed. `Result` is one variant as `gradekit solve` reports it; `ResultBatch` many.
+``driver``…; see ``of:`` in problem_bank/README.md) by running the producers the rows of the quantity
+table (`gradekit.solving.quantities`) declare, lazily, so only what a problem asks for is computed.
+`Result` is one variant as `gradekit solve` reports it; `ResultBatch` many.
 """
 
 from __future__ import annotations
@@ -19,7 +20,6 @@ from gradekit.errors import ConditioningError, GeometryError
 from gradekit.mechanics.forces import Solution, Solutions, frame_reaction, spot_point
 from gradekit.mechanics.model import Batched, Refusals
 from gradekit.solving import quantities
-from gradekit.solving.quantities import BY_NAME as Q
 
 
 @dataclass
@@ -182,100 +182,71 @@ def wrap(degrees, angle_range: tuple[float, float] = (0.0, 360.0)) -> np.ndarray
     return (np.asarray(degrees, float) - lo) % 360.0 + lo
 
 
-def flat_results(problem: Problem, sol: Solutions, values: dict | None = None) -> Results:
-    """Name every reported quantity of every variant (see ``of:`` in problem_bank/README.md); SI.
+class Solved:
+    """One solved batch as the producers of the quantity table (`gradekit.solving.quantities`) read it,
+    and the named results they put (`put`, `vector`), each computed on first use."""
 
-    *values* (the case's parameter values, in their units) are needed only by derived answers
-    that use parameters.
-    """
-    link = sol.linkage
-    lab = problem.label
-    n = sol.n
-    out = Results()
-    rng = problem.angle_range
+    def __init__(self, problem: Problem, sol: Solutions, values: dict | None, out: Results) -> None:
+        self.problem, self.sol, self.values, self.results = problem, sol, values, out
+        self.link = sol.linkage
+        self.label = problem.label
+        self.n = sol.n
+        self.put = out.put
+        self.angle_range = problem.angle_range
+        parts = {None: sol.total, **{g: sol.x[:, :, k] for k, g in enumerate(sol.group_names)}}
+        # (``@group`` suffix or "" for the total, the unknowns of that superposition part)
+        self.groups = [("" if g is None else "@" + group_label(problem, g), x) for g, x in parts.items()]
+        # the origin of positions ``r[P]`` and of the shaking moment, as (x, y), found on first use
+        self.origin = _once(_origin(problem, sol))
 
-    def arr(x) -> np.ndarray:
-        return np.broadcast_to(np.asarray(x, float), (n,))
+    def arr(self, x) -> np.ndarray:
+        """*x* broadcast to one value per variant."""
+        return np.broadcast_to(np.asarray(x, float), (self.n,))
 
-    def vector(name: str, x, y, unit: str) -> None:
+    def wrap(self, degrees) -> np.ndarray:
+        """Angles in degrees, in the problem's range."""
+        return wrap(degrees, self.angle_range)
+
+    def vector(self, name: str, x, y, unit: str) -> None:
+        """Put a vector's five names (``name``: its magnitude, ``.x``, ``.y``, ``.mag``, ``.angle``) from
+        its components *x*, *y* (arrays, or callables returning them)."""
+        out, put, arr, rng = self.results, self.put, self.arr, self.angle_range
         # the components, worked out on the first read of any of the five names
         xy = _once(lambda: (arr(x() if callable(x) else x), arr(y() if callable(y) else y)))
 
-        out.put(name + ".x", lambda: (xy()[0], unit))
-        out.put(name + ".y", lambda: (xy()[1], unit))
-        out.put(name + ".mag", lambda: (np.hypot(*xy()), unit))
-        out.put(name + ".angle", lambda: (wrap(np.degrees(np.arctan2(xy()[1], xy()[0])), rng), "deg"))
-        out.put(name, lambda: out[name + ".mag"])
+        put(name + ".x", lambda: (xy()[0], unit))
+        put(name + ".y", lambda: (xy()[1], unit))
+        put(name + ".mag", lambda: (np.hypot(*xy()), unit))
+        put(name + ".angle", lambda: (wrap(np.degrees(np.arctan2(xy()[1], xy()[0])), rng), "deg"))
+        put(name, lambda: out[name + ".mag"])
 
-    drv_unit = Q["driver"].si if link.driver.kind == "torque" else Q["F"].si
-    out.put("driver", (sol.driver, drv_unit))
-    out.put("transmission", (arr(link.transmission), Q["transmission"].si))
-    groups = {None: sol.total, **{g: sol.x[:, :, k] for k, g in enumerate(sol.group_names)}}
-    for gname, x in groups.items():
-        suffix = "" if gname is None else "@" + group_label(problem, gname)
-        if gname is not None:
-            out.put("driver" + suffix, (x[:, -1], drv_unit))
-        for j in link.joints:
-            u = sol.joint(j.name, x)
-            if hasattr(j, "axis"):
-                n_, c = u[:, 0], u[:, 1]
-                ax = arr(j.axis.v)
+    def points(self) -> dict:
+        """Every named point: the mechanism's (computed), the problem's own (each computed on first use)."""
+        link = self.link
+        points = dict(link.points)
+        for pname, spot in self.sol.analysis.points.items():
+            points[pname] = _once(lambda spot=spot: spot_point(link, spot))
+        return points
 
-                def fx(n_=n_, ax=ax):
-                    return n_ * -np.sin(ax)
+    def frame_reaction(self, x: np.ndarray):
+        """The forces the mechanism exerts on the frame under the unknowns *x* (one superposition part)
+        and their moment about the origin, computed on the first call of the returned function."""
+        link, arr, origin = self.link, self.arr, self.origin
+        return _once(lambda: frame_reaction(link, x, np.stack([arr(origin()[0]), arr(origin()[1])], axis=-1)))
 
-                def fy(n_=n_, ax=ax):
-                    return n_ * np.cos(ax)
 
-                a, b = j.guide, j.block
-                out.put(f"M[{lab(a)},{lab(b)}]{suffix}", (c, Q["M"].si))
-                out.put(f"M[{lab(b)},{lab(a)}]{suffix}", lambda c=c: (-c, Q["M"].si))
-            else:
-                fx, fy, a, b = u[:, 0], u[:, 1], j.a, j.b
-            vector(f"F[{lab(a)},{lab(b)}]{suffix}", fx, fy, Q["F"].si)
-            vector(f"F[{lab(b)},{lab(a)}]{suffix}", _neg(fx), _neg(fy), Q["F"].si)
-    for name, st in sol.states.items():
-        L = lab(name)
-        g = np.broadcast_to(st.a_g, (n, 2))
-        v = np.broadcast_to(st.v_g, (n, 2))
-        out.put(f"theta[{L}]", lambda st=st: (wrap(np.degrees(arr(st.angle)), rng), Q["theta"].si))
-        out.put(f"omega[{L}]", (arr(st.omega), Q["omega"].si))
-        out.put(f"alpha[{L}]", (arr(st.alpha), Q["alpha"].si))
-        vector(f"aG[{L}]", g[:, 0], g[:, 1], Q["aG"].si)
-        vector(f"vG[{L}]", v[:, 0], v[:, 1], Q["vG"].si)
+def flat_results(problem: Problem, sol: Solutions, values: dict | None = None) -> Results:
+    """Name every reported quantity of every variant (see ``of:`` in problem_bank/README.md); SI.
 
-        def fi(k, st=st):
-            return lambda: np.broadcast_to(st.inertia_force, (n, 2))[:, k]
-
-        vector(f"Fi[{L}]", fi(0), fi(1), Q["Fi"].si)
-        out.put(f"Ci[{L}]", lambda st=st: (arr(st.inertia_couple), Q["Ci"].si))
-        out.put(f"h[{L}]", lambda st=st: (np.nan_to_num(arr(st.offset), posinf=0.0, neginf=0.0), Q["h"].si))
-    origin = _origin(problem, sol)
-    points = dict(link.points)
-    for pname, spot in sol.analysis.points.items():
-        points[pname] = _lazy_point(link, spot)
-    for pname, pt in points.items():
-        P = problem.point(pname)
-
-        def comp(pt, attr, axis, sub=None):
-            def get():
-                p = pt() if callable(pt) else pt
-                v = getattr(p.x if axis == 0 else p.y, attr)
-                return v - (sub()[axis] if sub else 0.0)
-
-            return get
-
-        vector(f"v[{P}]", comp(pt, "d", 0), comp(pt, "d", 1), Q["v"].si)
-        vector(f"a[{P}]", comp(pt, "dd", 0), comp(pt, "dd", 1), Q["a"].si)
-        vector(f"r[{P}]", comp(pt, "v", 0, origin), comp(pt, "v", 1, origin), Q["r"].si)
-    for gname, x in groups.items():
-        suffix = "" if gname is None else "@" + group_label(problem, gname)
-
-        # once for the force's components and the moment
-        shaking = _once(lambda x=x: frame_reaction(link, x, np.stack([arr(origin()[0]), arr(origin()[1])], axis=-1)))
-
-        vector(f"shaking{suffix}", lambda s=shaking: s()[0][:, 0], lambda s=shaking: s()[0][:, 1], Q["shaking"].si)
-        out.put(f"shaking_moment{suffix}", lambda s=shaking: (s()[1], Q["shaking_moment"].si))
+    Each producer of the quantity table puts its rows' results (lazily); then each derived answer.
+    *values* (the case's parameter values, in their units) are needed only by ``param[...]`` and by
+    derived answers that use parameters.
+    """
+    out = Results()
+    solved = Solved(problem, sol, values, out)
+    for produce in quantities.PRODUCERS:
+        produce(solved)
+    n = sol.n
     for spec in problem.answers:
         d = quantities.derived(spec.of)
         if d is not None and spec.of not in out:
@@ -284,9 +255,9 @@ def flat_results(problem: Problem, sol: Solutions, values: dict | None = None) -
 
 
 def _once(make):
-    """*make*() on the first call, kept for the later ones. `flat_results` makes about fifty of these a
-    solve (a vector's components, a point, the shaking force), and solves one variant at a time in
-    every `generate` worker: `functools.cache` costs about 15 µs to make, a closure well under one."""
+    """*make*() on the first call, kept for the later ones. The producers make about fifty of these a
+    solve (a vector's components, a point, the shaking force), and `generate` solves one variant at a
+    time in every worker: `functools.cache` costs about 15 µs to make, a closure well under one."""
     kept = []
 
     def get():
@@ -295,10 +266,6 @@ def _once(make):
         return kept[0]
 
     return get
-
-
-def _lazy_point(link, spot):
-    return _once(lambda: spot_point(link, spot))
 
 
 def _origin(problem: Problem, sol: Solutions):
@@ -341,10 +308,6 @@ def _derived(problem: Problem, d, unit: str, out: Results, sol: Solutions, value
     si = units.si_unit(unit)
     readable = next((q.si for q in quantities.QUANTITIES if q.si and units.si_unit(q.si) == si), si)
     return value, readable
-
-
-def _neg(x):
-    return (lambda: -x()) if callable(x) else -x
 
 
 @dataclass
