@@ -71,9 +71,6 @@ def solve_many(problem: Problem, values: dict, n: int | None = None) -> ResultBa
             if spec.case is not None and spec.case != case.name:
                 continue
             key = spec.key if (spec.case is not None or case.name is None) else f"{spec.key}_{case.name}"
-            if spec.of.startswith("param["):
-                pname = spec.of[6:-1]
-                case.results.setdefault(spec.of, (case.values[pname], problem.parameters[pname].unit))
             if spec.of not in case.results:
                 raise ProblemError(
                     f"expected a result this mechanism reports (e.g. "
