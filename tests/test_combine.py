@@ -45,7 +45,7 @@ def parts(tmp_path_factory) -> list[Path]:
 
 def test_each_part_starts_on_an_odd_page_with_its_bookmarks_on_its_pages(parts, tmp_path):
     target = tmp_path / "all.pdf"
-    engine._concatenate(target, parts, "All", "MEG373")
+    engine.concatenate_pdfs(target, parts, "All", "MEG373")
     with pikepdf.Pdf.open(target) as pdf:
         # A: pages 1-3, a blank 4th, B: 5-6, C: 7 (0-based 0-2, 4-5, 6)
         assert len(pdf.pages) == 7
@@ -64,8 +64,8 @@ def test_each_part_starts_on_an_odd_page_with_its_bookmarks_on_its_pages(parts, 
 
 
 def test_the_same_parts_give_the_same_bytes(parts, tmp_path):
-    engine._concatenate(tmp_path / "1.pdf", parts, "All", "MEG373")
-    engine._concatenate(tmp_path / "2.pdf", parts, "All", "MEG373")
+    engine.concatenate_pdfs(tmp_path / "1.pdf", parts, "All", "MEG373")
+    engine.concatenate_pdfs(tmp_path / "2.pdf", parts, "All", "MEG373")
     assert (tmp_path / "1.pdf").read_bytes() == (tmp_path / "2.pdf").read_bytes()
 
 
@@ -74,7 +74,7 @@ def test_a_bookmark_without_a_page_of_its_part_goes_to_the_part_start(parts, tmp
     with pikepdf.Pdf.open(parts[1]) as b:
         b.Root.Outlines.First.Dest = pikepdf.String("nowhere")
         b.save(tmp_path / "B-named.pdf")
-    engine._concatenate(tmp_path / "all.pdf", [parts[0], tmp_path / "B-named.pdf"], "All", "MEG373")
+    engine.concatenate_pdfs(tmp_path / "all.pdf", [parts[0], tmp_path / "B-named.pdf"], "All", "MEG373")
     with pikepdf.Pdf.open(tmp_path / "all.pdf") as pdf:
         assert (1, "B page 1", 4) in _bookmarks(pdf)
 
@@ -90,7 +90,7 @@ def test_what_a_part_s_pages_inherit_goes_with_them(parts, tmp_path):
         b.Root.Pages.MediaBox = pikepdf.Array([0, 0, 300, 400])
         b.Root.Pages.Resources = b.make_indirect(res)
         b.save(tmp_path / "B-inherits.pdf")
-    engine._concatenate(tmp_path / "all.pdf", [parts[0], tmp_path / "B-inherits.pdf"], "All", "MEG373")
+    engine.concatenate_pdfs(tmp_path / "all.pdf", [parts[0], tmp_path / "B-inherits.pdf"], "All", "MEG373")
     with pikepdf.Pdf.open(tmp_path / "all.pdf") as pdf:
         assert len(pdf.pages) == 6  # A 3, a blank, B 2
         assert [list(map(float, p.mediabox)) for p in pdf.pages[4:]] == [[0, 0, 300, 400]] * 2
@@ -113,7 +113,7 @@ def test_the_combined_pdf_keeps_each_part_s_tags(parts, tmp_path):
     """One structure tree with each part's document element, pointing at the part's own pages; the
     parent tree's keys unique and each page's /StructParents one of them; the language and /MarkInfo;
     the table header cells' ids unique and named by the data cells' /Headers."""
-    engine._concatenate(tmp_path / "all.pdf", parts, "All", "MEG373")
+    engine.concatenate_pdfs(tmp_path / "all.pdf", parts, "All", "MEG373")
     with pikepdf.Pdf.open(tmp_path / "all.pdf") as pdf:
         root = pdf.Root
         assert str(root.Lang) == "en"

@@ -218,9 +218,31 @@ def _label_boxes(cv) -> list[tuple[str, str, tuple[float, float, float, float]]]
     return out
 
 
+def _seg_hits_box(p, q, box: tuple[float, float, float, float]) -> bool:
+    """Whether segment p–q meets the axis-aligned box (x0, y0, x1, y1) (Liang–Barsky)."""
+    x0, y0, x1, y1 = box
+    if max(p[0], q[0]) < x0 or min(p[0], q[0]) > x1 or max(p[1], q[1]) < y0 or min(p[1], q[1]) > y1:
+        return False
+    dx, dy = q[0] - p[0], q[1] - p[1]
+    t0, t1 = 0.0, 1.0
+    for pp, qq in ((-dx, p[0] - x0), (dx, x1 - p[0]), (-dy, p[1] - y0), (dy, y1 - p[1])):
+        if pp == 0:
+            if qq < 0:
+                return False
+            continue
+        t = qq / pp
+        if pp < 0:
+            t0 = max(t0, t)
+        else:
+            t1 = min(t1, t)
+        if t0 > t1:
+            return False
+    return True
+
+
 def _to_box(a, b, box) -> float:
     """Distance from segment a–b to an axis-aligned box (0 when they meet)."""
-    from gradekit.figures.canvas import _seg_hits_box, seg_distance
+    from gradekit.figures.canvas import seg_distance
 
     if _seg_hits_box(a, b, box):
         return 0.0

@@ -8,7 +8,7 @@ import pytest
 
 import gradekit
 from gradekit.bank.registry import load_bank
-from gradekit.figures.canvas import Canvas, _hits, text_size
+from gradekit.figures.canvas import Canvas, segment_box_hits, text_size
 from gradekit.figures.sheet import build_scene
 
 BANK = load_bank()
@@ -25,7 +25,7 @@ def _lines_on_labels(cv: Canvas) -> list[tuple[str, int]]:
         w, h = text_size(it.style["s"], it.style["size"])
         x0 = it.xy[0] - {"center": w / 2, "left": 0.0, "right": w}[it.style["ha"]]
         box = np.array([[x0, it.xy[1] - h / 2, x0 + w, it.xy[1] + h / 2]])
-        hit = _hits(S, box)[0]
+        hit = segment_box_hits(S, box)[0]
         own = (S[:, 4] == 0.5 / 2) & np.array(
             [min(np.hypot(*(np.clip(e, box[0, :2], box[0, 2:]) - e)) for e in (s[:2], s[2:4])) < 1.0 for s in S])
         n = int((hit & ~own).sum())

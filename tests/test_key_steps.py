@@ -14,7 +14,7 @@ from quick import bank_params
 
 import gradekit
 from gradekit.bank.registry import load_bank
-from gradekit.documents.context import _case
+from gradekit.documents.context import case_context
 
 ROOT = Path(__file__).resolve().parents[1]
 BANK = sorted(load_bank(ROOT / "problem_bank"))
@@ -45,7 +45,7 @@ def _worked(pid: str, seed: int | None) -> tuple:
     draw the key's figures: most of the module's time)."""
     v = gradekit.sample(pid) if seed is None else gradekit.sample(pid, seed=seed)
     res = gradekit.solve(v)
-    return tuple((res, case, _case(res, case)["steps"]) for case in res.cases)
+    return tuple((res, case, case_context(res, case)["steps"]) for case in res.cases)
 
 
 def _math(t) -> str:

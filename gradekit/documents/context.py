@@ -186,7 +186,7 @@ def _worked(res: Result, entries, key_pictures) -> dict:
             continue
         given.append({"symbol": par.symbol or name, "description": par.description,
                       "value": quantity(value, par.unit, 6), "derived": bool(par.expr)})
-    cases = [_case(res, c) for c in res.cases]
+    cases = [case_context(res, c) for c in res.cases]
     scale: dict[str, float] = {}  # values below the answer's scale × 1e-12 are a zero's round-off
     for e in entries:
         scale[e.unit] = max(scale.get(e.unit, 0.0), abs(e.value))
@@ -245,7 +245,7 @@ def _shown(p, value: float, si: str) -> tuple[float, str]:
     return (units.convert(value, si, du) if du != si else value), du
 
 
-def _case(res: Result, case: CaseResult) -> dict:
+def case_context(res: Result, case: CaseResult) -> dict:
     """Kinematics, inertia, equations, solved forces and superposition of one case (position)."""
     p = res.problem
     sol = case.solution

@@ -136,35 +136,13 @@ class Item:
     style: dict = field(default_factory=dict)
 
 
-def _seg_hits_box(p: np.ndarray, q: np.ndarray, box: tuple[float, float, float, float]) -> bool:
-    """Whether segment p–q meets the axis-aligned box (x0, y0, x1, y1) (Liang–Barsky)."""
-    x0, y0, x1, y1 = box
-    if max(p[0], q[0]) < x0 or min(p[0], q[0]) > x1 or max(p[1], q[1]) < y0 or min(p[1], q[1]) > y1:
-        return False
-    dx, dy = q[0] - p[0], q[1] - p[1]
-    t0, t1 = 0.0, 1.0
-    for pp, qq in ((-dx, p[0] - x0), (dx, x1 - p[0]), (-dy, p[1] - y0), (dy, y1 - p[1])):
-        if pp == 0:
-            if qq < 0:
-                return False
-            continue
-        t = qq / pp
-        if pp < 0:
-            t0 = max(t0, t)
-        else:
-            t1 = min(t1, t)
-        if t0 > t1:
-            return False
-    return True
-
-
 class _Segments:
     """Segments (rows as `Canvas._segment_array` gives them) with what `meets` and `lines_hit` need
     of them alone (extents, directions, which rows continue the line of the row before) worked out
     once, so a canvas pays for it once per change of its segment list, not once per label.
 
     Tables are segment × candidate (N×K): numpy runs along the last axis, and there are ~10 times
-    more candidates than segments; the arithmetic is `_hits`'s, value for value.
+    more candidates than segments; the arithmetic is `segment_box_hits`'s, value for value.
     """
 
     def __init__(self, S: np.ndarray) -> None:
@@ -206,7 +184,7 @@ class _Segments:
         return n
 
 
-def _hits(S: np.ndarray, boxes: np.ndarray) -> np.ndarray:
+def segment_box_hits(S: np.ndarray, boxes: np.ndarray) -> np.ndarray:
     """K×N: whether segment n of *S* (x0, y0, x1, y1, half width) meets box k (`_Segments.meets`)."""
     return _Segments(S).meets(boxes).T
 
@@ -528,7 +506,7 @@ class Canvas:
                     pen += 8.0 * _lines_hit(_leader_hits(S, check, end), S).reshape(pen.shape)
                 if self.boxes:
                     seg = np.column_stack([check, end, np.full(len(start), 0.5)])
-                    pen += 25.0 * _hits(seg, self._box_array()).sum(axis=0).reshape(pen.shape)
+                    pen += 25.0 * segment_box_hits(seg, self._box_array()).sum(axis=0).reshape(pen.shape)
                 start, end = start.reshape(C.shape), end.reshape(C.shape)
             # the nearest stand-off with a free candidate wins with its free one of least order ...
             free = pen == 0.0
