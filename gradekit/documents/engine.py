@@ -436,6 +436,7 @@ def _init(job: _Job, asg: Assignment | None = None, variants: dict | None = None
         compiler=typeset.Compiler(root),
         variants=variants or {},
         fonts=typeset.available_fonts(),
+        drawn={},  # figures drawn in this run (`_drawn`): a new run, perhaps of an edited bank, draws anew
     )
 
 
@@ -614,7 +615,6 @@ def _pictures(result, label: str, build: Path, safe: str, keys: bool, warnings: 
     return scenes, pics
 
 
-_DRAWN: dict[tuple, object] = {}
 _DRAWN_MAX = 256
 
 
@@ -623,22 +623,25 @@ def _drawn(result, what: tuple):
     distinct variant.
 
     Students share a variant when a problem has few (or no) random parameters; drawing is most
-    of the cost of a run, so each process remembers the last few hundred it drew.
+    of the cost of a run, so each process remembers the last few hundred it drew in this run (kept
+    with the run's state, so a later run in the same process never reuses a figure of an older
+    problem file).
     """
     from gradekit import figures
 
     p = result.problem
     cache_key = (p.id, p.path, tuple(sorted(result.values.items())), what)
-    hit = _DRAWN.get(cache_key)
+    drawn = _STATE["drawn"]
+    hit = drawn.get(cache_key)
     if hit is not None:
         return hit
     if what[0] == "scene":
         out = figures.scene_described(result, what[1], true_scale=what[2])
     else:
         out = figures.key_figures_described(result)
-    if len(_DRAWN) >= _DRAWN_MAX:
-        _DRAWN.pop(next(iter(_DRAWN)))
-    _DRAWN[cache_key] = out
+    if len(drawn) >= _DRAWN_MAX:
+        drawn.pop(next(iter(drawn)))
+    drawn[cache_key] = out
     return out
 
 
@@ -673,13 +676,13 @@ def _combine(out: Path, asg: Assignment, safes: list[str], keys: bool, pool=None
         tasks.append(("keys.pdf", [out / "keys" / f"{s}.pdf" for s in safes], f"{asg.course} {asg.title}: worked keys"))
     if pool is None:
         for name, parts, title in tasks:
-            _concatenate(out / name, parts, title, asg.course)
+            concatenate_pdfs(out / name, parts, title, asg.course)
     else:
-        for f in [pool.submit(_concatenate, out / name, parts, title, asg.course) for name, parts, title in tasks]:
+        for f in [pool.submit(concatenate_pdfs, out / name, parts, title, asg.course) for name, parts, title in tasks]:
             f.result()
 
 
-def _concatenate(target: Path, parts: list[Path], title: str, author: str) -> None:
+def concatenate_pdfs(target: Path, parts: list[Path], title: str, author: str) -> None:
     """*parts* one after the other in *target*, each starting on an odd page (duplex), each under a
     bookmark of its own named by the part's title (the student), with the part's bookmarks under it,
     and with the parts' tags: one structure tree holding each part's, the language, /MarkInfo.
@@ -815,7 +818,7 @@ def _tree_pairs(node, key: str) -> list:
 
 def _merge_structure(part, pages: list, tree, number: int, start: int, elements: list, nums: list, ids: list,
                      roles: dict) -> int:
-    """Add one part's copied structure tree *part* to the combined *tree* (see `_concatenate`);
+    """Add one part's copied structure tree *part* to the combined *tree* (see `concatenate_pdfs`);
     returns the next free parent-tree key."""
     import pikepdf
     from pikepdf import Array, Name
