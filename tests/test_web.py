@@ -51,7 +51,9 @@ def test_a_student_is_graded_at_once_uses_up_attempts_uploads_and_the_instructor
         page.fill(f'input[name="value:{b}"]', b_wrong)
         page.click("#submit")
         assert _row(page, a).locator(".verdict").inner_text() == "within the tolerance"
-        assert page.locator("#no-feedback").count() == 0 and "right" in page.inner_text(".feedback")
+        shown = page.inner_text(".feedback")
+        assert page.locator("#no-feedback").count() == 0 and "right" in shown
+        assert "Problems reading your file" not in shown and "Graded file" not in shown  # typed: no file of theirs
         assert _row(page, b).locator(".verdict").inner_text() == "not within the tolerance"
         assert _row(page, b).locator(".attempts-left").inner_text() == "1 of 2"
         assert key_rows(course, "1001")[1]["value"] not in page.content()  # never the key before the due date

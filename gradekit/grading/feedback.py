@@ -183,12 +183,13 @@ _CSS = (
 
 def feedback_pages(
     grade: StudentGrade, titles: Mapping[str, str], assignment_title: str, reveal: bool, hint: str = "direction",
-    escaped: Escaped | None = None,
+    escaped: Escaped | None = None, file: bool = True,
 ) -> tuple[str, str]:
     """One student's feedback as (Markdown, standalone HTML page), both from one `feedback_row` per
     answer; every text is escaped (students wrote some of it), through *escaped* when the pages of a
     whole class are made. The graded file is named as the student uploaded it, never by its path on
-    the instructor's disk."""
+    the instructor's disk; without *file* (answers typed on the online page, not a file of theirs)
+    neither it nor the problems of reading it are shown."""
     e = html.escape
     columns = COLUMNS + (("Correct answer",) if reveal else ())
     md_head = "| " + " | ".join(columns) + " |"
@@ -214,9 +215,10 @@ def feedback_pages(
         md += ["No submission was found for you.", ""]
         page.append("<p>No submission was found for you.</p>")
     else:
-        name = submitted_name(grade.submission.path)
-        md += [f"Graded file: {md_cell(name)}", ""]
-        page.append(f"<p>Graded file: <code>{e(name)}</code></p>")
+        if file:
+            name = submitted_name(grade.submission.path)
+            md += [f"Graded file: {md_cell(name)}", ""]
+            page.append(f"<p>Graded file: <code>{e(name)}</code></p>")
         if not reveal:
             md += [md_cell(UNNAMED_NOTE), ""]
             page.append(f"<p>{e(UNNAMED_NOTE)}</p>")
@@ -229,7 +231,7 @@ def feedback_pages(
         mine = rows.get(problem.problem, [])
         md += [f"## {md_cell(name)}: {earned}", "", md_head, md_rule, *(markdown_row(r, escaped) for r in mine), ""]
         page += [f"<h2>{e(name)}: {earned}</h2>", html_head, *(html_row(r, escaped) for r in mine), "</table>"]
-    if grade.issues:
+    if grade.issues and file:
         issues = [str(replace(i, path=submitted_name(i.path))) for i in grade.issues]
         md += ["## Problems reading your file", "", *(f"- {md_cell(i)}" for i in issues), ""]
         page += ["<h2>Problems reading your file</h2><ul>", *(f"<li><code>{e(i)}</code></li>" for i in issues), "</ul>"]

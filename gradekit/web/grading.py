@@ -130,8 +130,12 @@ class Course:
         return self._carry.apply(g) if self._carry is not None else g
 
     def feedback(self, grade: StudentGrade, reveal: bool) -> str:
-        """The body of the student's HTML feedback page (the feedback file's rows, every text escaped)."""
-        page = feedback_pages(grade, self.titles, self.assignment.title, reveal, self.assignment.feedback)[1]
+        """The body of the student's HTML feedback page (the feedback file's rows, every text escaped). The
+        page's answers are the attempts the student made on it (typed, or read from an upload they saw
+        first), kept as an answers CSV of the page's own making: no file of theirs to name or to report
+        problems in (a blank answer reads "not graded" in its row)."""
+        page = feedback_pages(grade, self.titles, self.assignment.title, reveal, self.assignment.feedback,
+                              file=False)[1]
         start, end = page.find("<body>"), page.rfind("</body>")
         return page[start + len("<body>"):end]
 
