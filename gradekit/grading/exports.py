@@ -19,7 +19,7 @@ from gradekit.csvsafe import atomic_write, write_csv, write_staged
 from gradekit.errors import GradekitError
 from gradekit.grading.compare import StudentGrade
 from gradekit.grading.feedback import (  # noqa: F401 (names batch.py imports from here)
-    Escaped,
+    FeedbackMemo,
     credit_text,
     feedback_html,
     feedback_markdown,
@@ -108,12 +108,12 @@ class _Pages:
     def __init__(self, graded: GradedClass) -> None:
         self.graded = graded
         self.made: dict[int, tuple[str, str]] = {}
-        self.escaped = Escaped()
+        self.memo = FeedbackMemo()
 
     def __call__(self, i: int) -> tuple[str, str]:
         if i not in self.made:
             g = self.graded
-            self.made[i] = feedback_pages(g.grades[i], g.titles, g.assignment_title, g.reveal, g.hint, self.escaped)
+            self.made[i] = feedback_pages(g.grades[i], g.titles, g.assignment_title, g.reveal, g.hint, self.memo)
         return self.made[i]
 
 

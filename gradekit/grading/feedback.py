@@ -46,15 +46,18 @@ class FeedbackRow(NamedTuple):
     verdict: str
 
 
-def feedback_row(r: AnswerResult, reveal: bool, hint: str = "direction") -> FeedbackRow:
-    """The feedback row of one answer (see `FeedbackRow`)."""
+def feedback_row(
+    r: AnswerResult, reveal: bool, hint: str = "direction", memo: FeedbackMemo | None = None
+) -> FeedbackRow:
+    """The feedback row of one answer (see `FeedbackRow`); *memo*: the class's `FeedbackMemo`."""
+    memo = FeedbackMemo() if memo is None else memo
     entry, answer = r.entry, r.answer
-    unit = pretty(entry.unit)
+    unit = memo.unit(entry.unit)
     read = ""
     if answer is not None:
         read = answer.raw + (f" [{answer.raw_unit}]" if answer.raw_unit else "")
     if r.value is not None and answer is not None:
-        given = pretty(answer.unit) if answer.unit else f"{unit} (no unit given)"
+        given = memo.unit(answer.unit) if answer.unit else f"{unit} (no unit given)"
         parsed = f"{fmt(answer.number, 6)} {given}".strip()
         if answer.unit and answer.unit != entry.unit:
             parsed += f" = {fmt(r.value, 6)} {unit}"
@@ -78,13 +81,18 @@ def feedback_row(r: AnswerResult, reveal: bool, hint: str = "direction") -> Feed
         diagnosis = f"{r.carried.describe()}; carried forward ({credit_text(share)})"
     else:
         diagnosis = _likely(r, reveal, verdict == "wrong")
-    worth = fmt(entry.points)  # an answer's points, and what a right one earned
-    earned = worth if r.points == entry.points else fmt(r.points)
-    points = f"by hand, of {worth}" if entry.hand_check else f"{earned}/{worth}"
-    cells = (entry.key, read, parsed, verdict, off, diagnosis, points)
+    cells = (entry.key, read, parsed, verdict, off, diagnosis, memo.points(r.points, entry.points, entry.hand_check))
     if reveal:
         cells += (f"{fmt(entry.value, 6)} {unit} ({entry.tolerance.describe()})",)
     return FeedbackRow(cells, verdict)
+
+
+def points_text(earned: float, worth: float, hand_check: bool) -> str:
+    """The Points cell: ``2.5/2.5``, ``0/1``, or ``by hand, of 5`` for an answer checked by hand."""
+    shown = fmt(worth)  # an answer's points, and what a right one earned
+    if hand_check:
+        return f"by hand, of {shown}"
+    return f"{shown if earned == worth else fmt(earned)}/{shown}"
 
 
 def _likely(r: AnswerResult, reveal: bool, wrong: bool) -> str:
@@ -138,15 +146,19 @@ def md_cell(text: str) -> str:
             .replace("[", "\\[").replace("]", "\\]"))
 
 
-class Escaped:
-    """The cell texts of one class's feedback, each distinct one escaped once for Markdown and once for
-    HTML. Most cells repeat from student to student (an answer's key, the verdicts, the points, the
-    hints): a class of 3,000 has about a quarter as many distinct cells as cells. One per class: it
-    holds every distinct text it was given."""
+class FeedbackMemo:
+    """What the feedback of one class repeats, each made once: a unit as printed, a Points cell, a
+    cell text escaped for Markdown and for HTML, and the escaped end of a row (its verdict, Off by,
+    Likely mistake and Points). Most cells repeat from student to student (an answer's key, the
+    verdicts, the points, the hints): a class of 3,000 has about a quarter as many distinct cells as
+    cells. One per class: it keeps every distinct text it was given."""
 
     def __init__(self) -> None:
         self._md: dict[str, str] = {}
         self._html: dict[str, str] = {}
+        self._units: dict[str, str] = {}
+        self._points: dict[tuple[float, float, bool], str] = {}
+        self._ends: dict[tuple[str, ...], tuple[str, str]] = {}
 
     def md(self, text: str) -> str:
         """*text* as `md_cell` escapes it."""
@@ -162,16 +174,43 @@ class Escaped:
             got = self._html[text] = html.escape(text)
         return got
 
+    def unit(self, unit: str) -> str:
+        """*unit* as printed (`gradekit.units.pretty`)."""
+        got = self._units.get(unit)
+        if got is None:
+            got = self._units[unit] = pretty(unit)
+        return got
 
-def markdown_row(row: FeedbackRow, escaped: Escaped | None = None) -> str:
-    """A feedback row as a Markdown table row (*escaped*: the class's escaped cells)."""
-    return "| " + " | ".join(map(md_cell if escaped is None else escaped.md, row.cells)) + " |"
+    def points(self, earned: float, worth: float, hand_check: bool) -> str:
+        """`points_text`."""
+        got = self._points.get((earned, worth, hand_check))
+        if got is None:
+            got = self._points[earned, worth, hand_check] = points_text(earned, worth, hand_check)
+        return got
+
+    def rows(self, row: FeedbackRow) -> tuple[str, str]:
+        """*row* as a Markdown table row and as an HTML table row (its class the verdict's), every cell
+        escaped. A cell's escape is its characters' (`md_cell`, `html.escape`), so a row is its cells'
+        escapes joined."""
+        c = row.cells
+        end = self._ends.get(c[3:])
+        if end is None:
+            end = self._ends[c[3:]] = (" | ".join(map(self.md, c[3:])) + " |",
+                                       "</td><td>".join(map(self.html, c[3:])) + "</td></tr>")
+        # what the student wrote and how it was read differ from student to student: escaped as they come
+        return (f"| {self.md(c[0])} | {md_cell(c[1])} | {md_cell(c[2])} | {end[0]}",
+                f'<tr class="{_CSS_CLASS[row.verdict]}"><td>{self.html(c[0])}</td><td>{html.escape(c[1])}</td><td>'
+                f'{html.escape(c[2])}</td><td>{end[1]}')
 
 
-def html_row(row: FeedbackRow, escaped: Escaped | None = None) -> str:
-    """A feedback row as an HTML table row, its class the verdict's (*escaped*: the class's escaped cells)."""
-    text = "</td><td>".join(map(html.escape if escaped is None else escaped.html, row.cells))
-    return f'<tr class="{_CSS_CLASS[row.verdict]}"><td>{text}</td></tr>'
+def markdown_row(row: FeedbackRow, memo: FeedbackMemo | None = None) -> str:
+    """A feedback row as a Markdown table row (*memo*: the class's `FeedbackMemo`)."""
+    return (FeedbackMemo() if memo is None else memo).rows(row)[0]
+
+
+def html_row(row: FeedbackRow, memo: FeedbackMemo | None = None) -> str:
+    """A feedback row as an HTML table row, its class the verdict's (*memo*: the class's `FeedbackMemo`)."""
+    return (FeedbackMemo() if memo is None else memo).rows(row)[1]
 
 
 _CSS = (
@@ -183,11 +222,11 @@ _CSS = (
 
 def feedback_pages(
     grade: StudentGrade, titles: Mapping[str, str], assignment_title: str, reveal: bool, hint: str = "direction",
-    escaped: Escaped | None = None, file: bool = True,
+    memo: FeedbackMemo | None = None, file: bool = True,
 ) -> tuple[str, str]:
     """One student's feedback as (Markdown, standalone HTML page), both from one `feedback_row` per
-    answer; every text is escaped (students wrote some of it), through *escaped* when the pages of a
-    whole class are made. The graded file is named as the student uploaded it, never by its path on
+    answer; every text is escaped (students wrote some of it), through the class's *memo* when the pages
+    of a whole class are made. The graded file is named as the student uploaded it, never by its path on
     the instructor's disk; without *file* (answers typed on the online page, not a file of theirs)
     neither it nor the problems of reading it are shown."""
     e = html.escape
@@ -222,15 +261,16 @@ def feedback_pages(
         if not reveal:
             md += [md_cell(UNNAMED_NOTE), ""]
             page.append(f"<p>{e(UNNAMED_NOTE)}</p>")
-    rows: dict[str, list[FeedbackRow]] = {}
+    memo = FeedbackMemo() if memo is None else memo
+    rows: dict[str, list[tuple[str, str]]] = {}
     for r in grade.results:
-        rows.setdefault(r.entry.problem, []).append(feedback_row(r, reveal, hint))
+        rows.setdefault(r.entry.problem, []).append(memo.rows(feedback_row(r, reveal, hint, memo)))
     for problem in grade.problems:
         name = titles.get(problem.problem, problem.problem)
         earned = f"{fmt(problem.points)} / {fmt(problem.max_points)}"
         mine = rows.get(problem.problem, [])
-        md += [f"## {md_cell(name)}: {earned}", "", md_head, md_rule, *(markdown_row(r, escaped) for r in mine), ""]
-        page += [f"<h2>{e(name)}: {earned}</h2>", html_head, *(html_row(r, escaped) for r in mine), "</table>"]
+        md += [f"## {md_cell(name)}: {earned}", "", md_head, md_rule, *(m for m, _ in mine), ""]
+        page += [f"<h2>{e(name)}: {earned}</h2>", html_head, *(h for _, h in mine), "</table>"]
     if grade.issues and file:
         issues = [str(replace(i, path=submitted_name(i.path))) for i in grade.issues]
         md += ["## Problems reading your file", "", *(f"- {md_cell(i)}" for i in issues), ""]
