@@ -162,6 +162,21 @@ def test_entry_mistakes_take_precedence_over_generic_ones() -> None:
     assert found is not None and found.description == "custom"
 
 
+def test_the_closest_mistake_is_named_and_an_own_one_wins_a_tie() -> None:
+    own = (Mistake("sign flipped", "own flip", -3.0), Mistake("static answer", "own static", 2000.0))
+    entry = KeyEntry("1", "p1", "p1.T", 2.0, "N*m", Tolerance(), sign_convention="CCW positive", mistakes=own)
+    assert diagnose(entry, -2.0) is None  # its own "sign flipped" stands for the generic one
+    assert diagnose(entry, 2000.0).description == "own static"  # the same value as the ×1000 slip
+    assert diagnose(entry, 0.002).name == "÷1000 unit slip"
+    plain = KeyEntry("1", "p1", "p1.T", 1.0, "N*m", Tolerance(rel=0.2), sign_convention="CCW positive",
+                     mistakes=(Mistake("static answer", "own static", 1100.0),))
+    assert diagnose(plain, 1000.0).name == "×1000 unit slip"  # both bands hold it; the slip is closer
+    assert diagnose(plain, -1.0).description == "the sign is reversed (convention: CCW positive)"
+    angle = KeyEntry("1", "p1", "p1.th", 10.0, "deg", Tolerance(rel=0.0, abs=0.5, period=360.0))
+    assert diagnose(angle, 350.0).name == "sign flipped"  # −10° wrapped
+    assert diagnose(angle, 10 * math.pi / 180).name == "radians for degrees"
+
+
 def test_feedback_escapes_what_students_wrote() -> None:
     from gradekit.grading.compare import grade_student
     from gradekit.grading.reader import Submission

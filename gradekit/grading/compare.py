@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import NamedTuple
 
@@ -30,6 +30,46 @@ component) is a fixed transformation of the key, so naming it would hand the stu
 """
 
 
+class _Generic(NamedTuple):
+    """One kind of mistake that needs no re-solve: made from the key's value v alone."""
+
+    name: str
+    description: str  # "{convention}" stands for the entry's sign convention, when it states one
+    made: Callable  # the mistaken value from v (a float, or an array of them)
+    units: tuple[str, ...] = ()  # only for a unit starting with one of these (spaces removed, lower case); (): any
+    nonzero: bool = False  # only where v ≠ 0
+
+
+_GENERIC = (
+    _Generic("sign flipped", "the sign is reversed{convention}", lambda v: -v, nonzero=True),
+    _Generic("×1000 unit slip", "1000 times too large (e.g. N·mm for N·m)", lambda v: v * 1000),
+    _Generic("÷1000 unit slip", "1000 times too small (e.g. N·m for N·mm)", lambda v: v / 1000),
+    _Generic("degrees for radians", "given in degrees, asked in radians", lambda v: v * _DEG, ("rad",)),
+    _Generic("radians for degrees", "given in radians, asked in degrees", lambda v: v / _DEG, ("deg", "°")),
+)
+"""The generic mistakes, in the order `generic_mistakes` lists them (an earlier one wins a tie)."""
+
+_GENERIC_INDEX = {g.name: j for j, g in enumerate(_GENERIC)}
+
+
+def _generic_columns(keys: np.ndarray, units: Sequence[str]) -> tuple[np.ndarray, np.ndarray]:
+    """The `_GENERIC` mistakes of many key values (*keys*, each in its unit of *units*) as (keys ×
+    kinds) columns: each mistaken value, and where the kind applies."""
+    index = {u: i for i, u in enumerate(dict.fromkeys(units))}  # each distinct unit decided once
+    by_unit = np.array([[not g.units or u.replace(" ", "").lower().startswith(g.units) for g in _GENERIC]
+                        for u in index], bool)
+    applies = by_unit[[index[u] for u in units]] & (~np.array([g.nonzero for g in _GENERIC]) | (keys != 0)[:, None])
+    with np.errstate(over="ignore", invalid="ignore"):
+        made = np.stack([g.made(keys) for g in _GENERIC], axis=1)
+    return made, applies
+
+
+def _generic(kind: _Generic, entry: KeyEntry, value: float) -> Mistake:
+    """The *kind* of generic mistake made on *entry*'s key, leading to *value*."""
+    convention = f" (convention: {entry.sign_convention})" if entry.sign_convention else ""
+    return Mistake(kind.name, kind.description.format(convention=convention), value)
+
+
 def generic_mistakes(entry: KeyEntry) -> tuple[Mistake, ...]:
     """Mistakes that need no re-solve: a sign flip, a ×1000 prefix slip, degrees for radians.
 
@@ -44,19 +84,9 @@ def generic_mistakes(entry: KeyEntry) -> tuple[Mistake, ...]:
         N·mm for N·m), and for angular units ``degrees for radians`` (v·180/π) or
         ``radians for degrees`` (v·π/180).
     """
-    v = entry.value
-    found = []
-    if v != 0:
-        convention = f" (convention: {entry.sign_convention})" if entry.sign_convention else ""
-        found.append(Mistake("sign flipped", f"the sign is reversed{convention}", -v))
-    found.append(Mistake("×1000 unit slip", "1000 times too large (e.g. N·mm for N·m)", v * 1000))
-    found.append(Mistake("÷1000 unit slip", "1000 times too small (e.g. N·m for N·mm)", v / 1000))
-    unit = entry.unit.replace(" ", "").lower()
-    if unit.startswith("rad"):
-        found.append(Mistake("degrees for radians", "given in degrees, asked in radians", v * _DEG))
-    elif unit.startswith(("deg", "°")):
-        found.append(Mistake("radians for degrees", "given in radians, asked in degrees", v / _DEG))
-    return tuple(found)
+    made, applies = _generic_columns(np.array([entry.value], float), [entry.unit])
+    return tuple(_generic(g, entry, x) for g, x, ok in zip(_GENERIC, made[0].tolist(), applies[0].tolist(), strict=True)
+                 if ok)
 
 
 class AnswerResult(NamedTuple):
@@ -218,30 +248,37 @@ def _diagnoses(
     """For each wrong answer (*values* in its entry's unit), the catalogued mistake that explains it:
     of the entry's own (re-solved) mistakes and the `generic_mistakes` it does not already name, those
     whose band accepts the answer, the closest (in bands; an earlier one on a tie). The closest, not the
-    first: a ×1000 unit slip of a torque can also fall inside a wide band around its static answer."""
-    owner, candidates = [], []
-    for i, e in enumerate(entries):
-        named = {m.name for m in e.mistakes}
-        for m in (*e.mistakes, *(g for g in generic_mistakes(e) if g.name not in named)):
-            if math.isfinite(m.value):
-                owner.append(i)
-                candidates.append(m)
-    found: list[Mistake | None] = [None] * len(entries)
-    if not candidates:
-        return found
-    at = np.array(owner)
-    m = np.array([c.value for c in candidates], float)
-    rel, abs_, sig, period = (t[at] for t in tolerances)
-    fits = within(values[at], m, rel, abs_, sig, period)
+    first: a ×1000 unit slip of a torque can also fall inside a wide band around its static answer.
+
+    The candidates are a (cells × candidates) array, each row the entry's own mistakes, NaN up to the
+    most any entry has, then the generic ones (NaN where one does not apply): a `Mistake` is made only
+    for a generic winner."""
+    n = len(entries)
+    if not n:
+        return []
+    own = [e.mistakes for e in entries]
+    counts = np.array([len(m) for m in own], int)
+    flat = [m for ms in own for m in ms]
+    rows = np.repeat(np.arange(n), counts)
+    width = int(counts.max())
+    candidates = np.full((n, width + len(_GENERIC)), np.nan)
+    candidates[rows, np.arange(len(flat)) - np.repeat(np.cumsum(counts) - counts, counts)] = [m.value for m in flat]
+    generic, applies = _generic_columns(np.array([e.value for e in entries], float), [e.unit for e in entries])
+    for i, m in zip(rows.tolist(), flat, strict=True):  # a name the entry carries is its own, not the generic one
+        if m.name in _GENERIC_INDEX:
+            applies[i, _GENERIC_INDEX[m.name]] = False
+    candidates[:, width:] = np.where(applies, generic, np.nan)
+    x = values[:, None]
+    rel, abs_, sig, period = (t[:, None] for t in tolerances)
+    fits = within(x, candidates, rel, abs_, sig, period)
     with np.errstate(divide="ignore", invalid="ignore"):
-        distance = np.abs(values[at] - m) / half_widths(m, rel, abs_, sig)
-    best: dict[int, tuple[float, int]] = {}
-    for j in np.flatnonzero(fits).tolist():
-        d = float(distance[j]) if math.isfinite(distance[j]) else 0.0
-        if owner[j] not in best or d < best[owner[j]][0]:
-            best[owner[j]] = (d, j)
-    for i, (_, j) in best.items():
-        found[i] = candidates[j]
+        distance = np.abs(x - candidates) / half_widths(candidates, rel, abs_, sig)
+    distance = np.where(fits, np.where(np.isfinite(distance), distance, 0.0), np.inf)
+    best = distance.argmin(axis=1)  # the first of the closest: the earlier candidate on a tie
+    found: list[Mistake | None] = [None] * n
+    for i in np.flatnonzero(fits.any(axis=1)).tolist():
+        j = int(best[i])
+        found[i] = own[i][j] if j < width else _generic(_GENERIC[j - width], entries[i], float(candidates[i, j]))
     return found
 
 
