@@ -177,6 +177,15 @@ def test_the_closest_mistake_is_named_and_an_own_one_wins_a_tie() -> None:
     assert diagnose(angle, 10 * math.pi / 180).name == "radians for degrees"
 
 
+def test_a_direction_s_closest_mistake_is_measured_around_the_circle() -> None:
+    """350° against a key of 10° (band ±0.1°): the sign flip (−10°) is 0° away around the circle, the ×1000
+    slip (10,000°, band ±100°) 70°, 0.7 of its band. On the number line the flip is 3,600 bands away and
+    the slip 96.5, which named the slip."""
+    direction = KeyEntry("1", "p1", "p1.dir", 10.0, "deg", Tolerance(rel=0.01, period=360.0))
+    assert diagnose(direction, 350.0).name == "sign flipped"
+    assert diagnose(direction, 350.0 + 720.0).name == "sign flipped"
+
+
 def test_feedback_escapes_what_students_wrote() -> None:
     from gradekit.grading.compare import grade_student
     from gradekit.grading.reader import Submission

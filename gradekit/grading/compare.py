@@ -247,8 +247,9 @@ def _diagnoses(
 ) -> list[Mistake | None]:
     """For each wrong answer (*values* in its entry's unit), the catalogued mistake that explains it:
     of the entry's own (re-solved) mistakes and the `generic_mistakes` it does not already name, those
-    whose band accepts the answer, the closest (in bands; an earlier one on a tie). The closest, not the
-    first: a ×1000 unit slip of a torque can also fall inside a wide band around its static answer.
+    whose band accepts the answer, the closest (in bands, the difference wrapped at a full turn as the band
+    wraps it; an earlier one on a tie). The closest, not the first: a ×1000 unit slip of a torque can also
+    fall inside a wide band around its static answer.
 
     The candidates are a (cells × candidates) array, each row the entry's own mistakes, NaN up to the
     most any entry has, then the generic ones (NaN where one does not apply): a `Mistake` is made only
@@ -272,7 +273,7 @@ def _diagnoses(
     rel, abs_, sig, period = (t[:, None] for t in tolerances)
     fits = within(x, candidates, rel, abs_, sig, period)
     with np.errstate(divide="ignore", invalid="ignore"):
-        distance = np.abs(x - candidates) / half_widths(candidates, rel, abs_, sig)
+        distance = np.abs(wrapped(x - candidates, period)) / half_widths(candidates, rel, abs_, sig)
     distance = np.where(fits, np.where(np.isfinite(distance), distance, 0.0), np.inf)
     best = distance.argmin(axis=1)  # the first of the closest: the earlier candidate on a tie
     found: list[Mistake | None] = [None] * n
