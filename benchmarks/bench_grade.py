@@ -7,7 +7,7 @@ few blank or unreadable cells, and 5 % copied from a classmate. It then times th
 process: with `--manifest` (the frozen keys) and without (keys re-derived for the class). Start-up
 is excluded by the marginal rate between the two sizes: (3,000 − 300) / (t₃₀₀₀ − t₃₀₀). The time
 includes reading every file, comparing, copy detection and writing grades.csv, canvas.csv,
-moodle.csv, a feedback file per student, report.md and histogram.png.
+moodle.csv, a feedback file per student, report.md and histogram.svg.
 
 Run: ``python benchmarks/bench_grade.py [--quick]`` (quick: 100 and 1,000 students).
 """
