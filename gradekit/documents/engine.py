@@ -159,14 +159,16 @@ def _whole_class(
     job = _Job(str(assignment), str(out), keys, tuple(ids), secret)
     done: dict[str, _Done] = {}
     work = [(s, names[s.student_id]) for s in students]
-    safes = [names[s.student_id] for s in students]
+    # the combined PDFs are joined here as the students' documents arrive, in roster order: with
+    # workers, while they make the next students', so that only the writing is left after the last
+    joins = _joins(asg, keys)
     with _bar(len(work), progress) as bar:
         if jobs <= 1 or len(work) <= 1:
             _init(job, asg, variants)
             for s, safe in work:
                 done[s.student_id] = _one(s, safe)
+                _join(joins, out, safe)
                 bar.update(1)
-            _combine(out, asg, safes, keys)
         else:
             # spawn, not fork: a forked child inherits typst's and matplotlib's threads mid-lock
             ctx = multiprocessing.get_context("spawn")
@@ -174,10 +176,11 @@ def _whole_class(
                 # one student a task: a student is a third of a second of work and a task's round trip
                 # well under a millisecond, so the workers end within one student of each other
                 # (chunks of 8 left one core idle for up to 8 students at the end)
-                for d in pool.map(_one_packed, work):
+                for d, (_, safe) in zip(pool.map(_one_packed, work), work, strict=True):
                     done[d.student_id] = d
+                    _join(joins, out, safe)
                     bar.update(1)
-                _combine(out, asg, safes, keys, pool)  # the two combined PDFs side by side in the workers
+        _write_joins(joins, out)
     seeds = {s.student_id: seeds_of(asg, s.student_id, redraws[s.student_id]) for s in students}
     frozen_text = frozen.dumps(class_entries)
     _write_keys(out, class_entries, frozen_text, manifest(asg, ids, seeds, frozen_text))
@@ -658,34 +661,51 @@ def _slug(text: str) -> str:
 # --- the combined PDFs ------------------------------------------------------------------------
 
 
-def _combine(out: Path, asg: Assignment, safes: list[str], keys: bool, pool=None) -> None:
-    """``assignments.pdf`` and ``keys.pdf``: every student's compiled PDF, concatenated in roster order.
+def _combine(out: Path, asg: Assignment, safes: list[str], keys: bool) -> None:
+    """``assignments.pdf`` and ``keys.pdf``: the documents of the students *safes*, joined in that order."""
+    joins = _joins(asg, keys)
+    for safe in safes:
+        _join(joins, out, safe)
+    _write_joins(joins, out)
 
-    Concatenating the finished PDFs (pikepdf) instead of typesetting one document that includes every
-    body avoids compiling the class twice: about 0.3 s for 30 keys of 16 pages, where typesetting
-    them again takes about 7 s.
-    """
-    tasks = [
-        (
-            "assignments.pdf",
-            [out / "students" / s / "assignment.pdf" for s in safes],
-            f"{asg.course} {asg.title}: assignments",
-        )
-    ]
+
+def _joins(asg: Assignment, keys: bool) -> dict[str, Joined]:
+    """The combined PDFs, empty, by file name: ``assignments.pdf`` and (with keys) ``keys.pdf``.
+
+    They join the finished per-student PDFs (pikepdf) rather than typeset one document of every
+    body, which would compile the class twice."""
+    joins = {"assignments.pdf": Joined(f"{asg.course} {asg.title}: assignments", asg.course)}
     if keys:
-        tasks.append(("keys.pdf", [out / "keys" / f"{s}.pdf" for s in safes], f"{asg.course} {asg.title}: worked keys"))
-    if pool is None:
-        for name, parts, title in tasks:
-            concatenate_pdfs(out / name, parts, title, asg.course)
-    else:
-        for f in [pool.submit(concatenate_pdfs, out / name, parts, title, asg.course) for name, parts, title in tasks]:
-            f.result()
+        joins["keys.pdf"] = Joined(f"{asg.course} {asg.title}: worked keys", asg.course)
+    return joins
+
+
+def _join(joins: dict[str, Joined], out: Path, safe: str) -> None:
+    """Add one student's sheet and key to the combined PDFs."""
+    joins["assignments.pdf"].add(out / "students" / safe / "assignment.pdf")
+    if "keys.pdf" in joins:
+        joins["keys.pdf"].add(out / "keys" / f"{safe}.pdf")
+
+
+def _write_joins(joins: dict[str, Joined], out: Path) -> None:
+    for name, joined in joins.items():
+        joined.write(out / name)
 
 
 def concatenate_pdfs(target: Path, parts: list[Path], title: str, author: str) -> None:
-    """*parts* one after the other in *target*, each starting on an odd page (duplex), each under a
-    bookmark of its own named by the part's title (the student), with the part's bookmarks under it,
-    and with the parts' tags: one structure tree holding each part's, the language, /MarkInfo.
+    """*parts* one after the other in *target* (see `Joined`)."""
+    joined = Joined(title, author)
+    for path in parts:
+        joined.add(path)
+    joined.write(target)
+
+
+class Joined:
+    """A combined PDF made part by part: the parts one after the other, each starting on an odd page
+    (duplex), each under a bookmark of its own named by the part's title (the student), with the
+    part's bookmarks under it, and with the parts' tags: one structure tree holding each part's, the
+    language, /MarkInfo. A part is copied when it is added (`add`), so a run can join the parts as
+    they are made; `write` links what was added and writes the file.
 
     pikepdf (qpdf) copies the objects without parsing them in Python; it copies every object of one
     part once, so the copied structure elements point at the copied pages. The page tree and the
@@ -697,28 +717,35 @@ def concatenate_pdfs(target: Path, parts: list[Path], title: str, author: str) -
     element ids (a table's header cells, which the data cells name in /Headers) get the part's
     number as a prefix, as two students' tables have the same ids.
     """
-    import io
 
-    import pikepdf
-    from pikepdf import Array, Dictionary, Name
+    def __init__(self, title: str, author: str) -> None:
+        import pikepdf
+        from pikepdf import Dictionary, Name
 
-    out = pikepdf.Pdf.new()
-    root = out.Root.Pages
-    tree = out.make_indirect(Dictionary(Type=Name.StructTreeRoot))
-    nodes: list = []
-    bookmarks: list = []  # one per part, the part's own outline items under it
-    elements: list = []  # every part's top structure elements, in order
-    nums: list = []  # the merged parent tree's (key, value) pairs
-    ids: list = []  # the merged id tree's (id, element) pairs
-    roles: dict = {}
-    lang = None
-    total = 0
-    next_key = 0
-    for number, path in enumerate(parts):
+        self.title, self.author = title, author
+        self.out = pikepdf.Pdf.new()
+        self.tree = self.out.make_indirect(Dictionary(Type=Name.StructTreeRoot))
+        self.nodes: list = []
+        self.bookmarks: list = []  # one per part, the part's own outline items under it
+        self.elements: list = []  # every part's top structure elements, in order
+        self.nums: list = []  # the merged parent tree's (key, value) pairs
+        self.ids: list = []  # the merged id tree's (id, element) pairs
+        self.roles: dict = {}
+        self.lang = None
+        self.total = 0  # pages so far
+        self.next_key = 0
+        self.parts = 0
+
+    def add(self, path: Path) -> None:
+        """Copy the part at *path* in after those added before it."""
+        import pikepdf
+        from pikepdf import Array, Dictionary, Name
+
+        out = self.out
         with pikepdf.Pdf.open(path) as src:
-            node = out.make_indirect(Dictionary(Type=Name.Pages, Parent=root))
+            node = out.make_indirect(Dictionary(Type=Name.Pages, Parent=out.Root.Pages))
             kids = []
-            if total % 2:
+            if self.total % 2:
                 box = src.pages[0].mediabox
                 kids.append(out.make_indirect(Dictionary(
                     Type=Name.Page, Parent=node, MediaBox=Array([0, 0, float(box[2]), float(box[3])]),
@@ -729,9 +756,9 @@ def concatenate_pdfs(target: Path, parts: list[Path], title: str, author: str) -
             kids += copies
             node.Kids = Array(kids)
             node.Count = len(kids)
-            nodes.append(node)
-            total += len(kids)
-            lang = lang if lang is not None else src.Root.get(Name.Lang)
+            self.nodes.append(node)
+            self.total += len(kids)
+            self.lang = self.lang if self.lang is not None else src.Root.get(Name.Lang)
             if copies:
                 mark = out.make_indirect(Dictionary(Title=pikepdf.String(_part_title(src, path)),
                                                     Dest=Array([copies[0], Name.Fit])))
@@ -743,34 +770,46 @@ def concatenate_pdfs(target: Path, parts: list[Path], title: str, author: str) -
                         inner.append(item)
                         item = item.get(Name.Next)
                 _hang(mark, inner)
-                bookmarks.append(mark)
+                self.bookmarks.append(mark)
             if Name.StructTreeRoot in src.Root:
-                next_key = _merge_structure(out.copy_foreign(src.Root.StructTreeRoot), copies, tree, number,
-                                            next_key, elements, nums, ids, roles)
-    root.Kids = Array(nodes)
-    root.Count = total
-    if bookmarks:
-        outlines = out.make_indirect(Dictionary(Type=Name.Outlines))
-        outlines.Count = _hang(outlines, bookmarks)
-        out.Root.Outlines = outlines
-    if elements:
-        tree.K = Array(elements)
-        tree.ParentTree = out.make_indirect(Dictionary(Nums=Array([x for pair in nums for x in pair])))
-        tree.ParentTreeNextKey = next_key
-        if ids:
-            tree.IDTree = out.make_indirect(Dictionary(Names=Array([x for pair in sorted(ids) for x in pair])))
-        if roles:
-            tree.RoleMap = Dictionary(roles)
-        out.Root.StructTreeRoot = tree
-        out.Root.MarkInfo = Dictionary(Marked=True)
-    if lang is not None:
-        out.Root.Lang = lang
-    out.Root.ViewerPreferences = Dictionary(DisplayDocTitle=True)
-    out.docinfo["/Title"] = title
-    out.docinfo["/Author"] = author
-    buf = io.BytesIO()
-    out.save(buf, deterministic_id=True)  # the same parts give the same bytes
-    atomic_write(target, buf.getvalue())
+                self.next_key = _merge_structure(out.copy_foreign(src.Root.StructTreeRoot), copies, self.tree,
+                                                 self.parts, self.next_key, self.elements, self.nums, self.ids,
+                                                 self.roles)
+        self.parts += 1
+
+    def write(self, target: Path) -> None:
+        """Link the parts added and write the combined PDF to *target* (the same parts give the same bytes)."""
+        import io
+
+        from pikepdf import Array, Dictionary, Name
+
+        out, tree = self.out, self.tree
+        root = out.Root.Pages
+        root.Kids = Array(self.nodes)
+        root.Count = self.total
+        if self.bookmarks:
+            outlines = out.make_indirect(Dictionary(Type=Name.Outlines))
+            outlines.Count = _hang(outlines, self.bookmarks)
+            out.Root.Outlines = outlines
+        if self.elements:
+            tree.K = Array(self.elements)
+            tree.ParentTree = out.make_indirect(Dictionary(Nums=Array([x for pair in self.nums for x in pair])))
+            tree.ParentTreeNextKey = self.next_key
+            if self.ids:
+                tree.IDTree = out.make_indirect(Dictionary(Names=Array([x for pair in sorted(self.ids) for x in pair])))
+            if self.roles:
+                tree.RoleMap = Dictionary(self.roles)
+            out.Root.StructTreeRoot = tree
+            out.Root.MarkInfo = Dictionary(Marked=True)
+        if self.lang is not None:
+            out.Root.Lang = self.lang
+        out.Root.ViewerPreferences = Dictionary(DisplayDocTitle=True)
+        out.docinfo["/Title"] = self.title
+        out.docinfo["/Author"] = self.author
+        buf = io.BytesIO()
+        out.save(buf, deterministic_id=True)
+        atomic_write(target, buf.getvalue())
+        out.close()
 
 
 def _part_title(src, path: Path) -> str:
