@@ -781,6 +781,7 @@ class Joined:
         """Link the parts added and write the combined PDF to *target* (the same parts give the same bytes)."""
         import io
 
+        import pikepdf
         from pikepdf import Array, Dictionary, Name
 
         out, tree = self.out, self.tree
@@ -807,7 +808,9 @@ class Joined:
         out.docinfo["/Title"] = self.title
         out.docinfo["/Author"] = self.author
         buf = io.BytesIO()
-        out.save(buf, deterministic_id=True)
+        # object streams: the parts' thousands of small structure elements compressed together, which
+        # makes the file a third of the size and is quicker to write than each object on its own
+        out.save(buf, deterministic_id=True, object_stream_mode=pikepdf.ObjectStreamMode.generate)
         atomic_write(target, buf.getvalue())
         out.close()
 
