@@ -62,17 +62,17 @@ def measure(n: int, jobs: int, keys: bool, combine: bool = False) -> dict:
 
 
 def combine_times(out: Path, n: int) -> dict[int, float]:
-    """Seconds to concatenate the first n/3 and all n worked keys of a finished run into one PDF (as
-    keys.pdf is made): the time a part must not grow with the class (it did, quadratically, before).
-    It runs after every student is done, in one worker while the other joins the sheets: the wall time
-    of a class is about its students' CPU over two, plus this."""
+    """Seconds to join the first n/3 and all n worked keys of a finished run into one PDF (as keys.pdf
+    is made): the time a part must not grow with the class (it did, quadratically, before). In a run
+    the main process joins each student's key as it arrives, beside the two workers, and writes the
+    file after the last one."""
     from gradekit.documents import engine
 
     parts = sorted((out / "keys").glob("*.pdf"))
     times = {}
     for k in (n // 3, n):
         t = time.perf_counter()
-        engine._concatenate(out / "again.pdf", parts[:k], "again", "bench")
+        engine.concatenate_pdfs(out / "again.pdf", parts[:k], "again", "bench")
         times[k] = round(time.perf_counter() - t, 2)
     return times
 
@@ -81,7 +81,8 @@ def breakdown(n: int = 20) -> dict:
     """Where one worker's time goes: CPU seconds per student, in this process, of each part of a
     student's documents (examples/hw5.yaml, worked keys on), over *n* students after a first one
     (warm caches, as in a worker). Typst's share is split into layout and PDF export by compiling
-    each body again without export (`query`)."""
+    each body again without export (`query`). Apart: the main process's CPU a student for joining
+    their sheet and key into the combined PDFs."""
     import shutil
 
     import typst
@@ -130,6 +131,14 @@ def breakdown(n: int = 20) -> dict:
             total = time.process_time() - t0
         finally:
             typeset.Compiler.pdf, engine._pictures, engine.build_context = pdf, pictures, context
+        # the main process's share: joining each student's sheet and key into the combined PDFs
+        joins = {"assignments.pdf": engine.Joined("a", "b"), "keys.pdf": engine.Joined("k", "b")}
+        t = time.process_time()
+        for st in students[1:]:
+            engine._join(joins, out, names[st.student_id])
+        for name, joined in joins.items():
+            joined.write(Path(tmp) / name)
+        joining = time.process_time() - t
         layout = {"typst sheet": 0.0, "typst key": 0.0}
         for b in bodies:
             c = typst.Compiler(input=b.encode("utf-8"), root=str(out / engine.BUILD))
@@ -140,7 +149,8 @@ def breakdown(n: int = 20) -> dict:
     per = {k: round(v / n, 4) for k, v in cpu.items()}
     per["other"] = round(total / n - sum(per.values()), 4)
     return {"students": n, "cpu_s_per_student": per, "total_cpu_s_per_student": round(total / n, 4),
-            "typst_layout_s_per_student": {k: round(v / n, 4) for k, v in layout.items()}}
+            "typst_layout_s_per_student": {k: round(v / n, 4) for k, v in layout.items()},
+            "join_cpu_s_per_student": round(joining / n, 4)}
 
 
 def run(quick: bool, repeats: int = 3) -> dict:
@@ -181,7 +191,9 @@ def run(quick: bool, repeats: int = 3) -> dict:
                   f"processes a student at the margin: {[round(x, 3) for x in cpus]} s", flush=True)
     parts = breakdown(5 if quick else 20)
     print(f"CPU a student in one worker: {parts['total_cpu_s_per_student']} s: {parts['cpu_s_per_student']}; "
-          f"Typst layout alone {parts['typst_layout_s_per_student']} (load {os.getloadavg()[0]:.2f})", flush=True)
+          f"Typst layout alone {parts['typst_layout_s_per_student']}; joining a student's sheet and key into the "
+          f"combined PDFs (main process) {parts['join_cpu_s_per_student']} s (load {os.getloadavg()[0]:.2f})",
+          flush=True)
     combined = [r["combine"] for r in results if "combine" in r]
     if combined:
         print(f"keys.pdf from n/3 and n worked keys, s: {combined}", flush=True)
