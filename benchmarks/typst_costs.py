@@ -27,19 +27,27 @@ ROOT = Path(__file__).resolve().parents[1]
 KEYS = (3, 5, 7)  # the measured keys: sources 1, 3, 5, ... are keys, 0, 2, ... sheets
 
 
+# a formula as `typeset.formula` writes it: the equation with its spoken alt text, then the math
+FORMULA = re.compile(r'#math\.equation\(alt: ("(?:[^"\\]|\\.)*"), block: false, \$((?:[^$\\]|\\.)*)\$\.body\);')
+
+
 def _as_text(formula: re.Match) -> str:
-    return '#"' + formula.group(1).replace('"', "").replace("\\", "") + '"'
+    return '#"' + formula.group(2).replace('"', "").replace("\\", "") + '";'
 
 
 VARIANTS = {
     "as-is": lambda s: s,
     "no-tables": lambda s: re.sub(r"#table\(", "#let _t = table(", s),
-    "math-as-text": lambda s: re.sub(r"\$([^$]*)\$", _as_text, s),
+    "math-as-text": lambda s: FORMULA.sub(_as_text, s),
     "pdf-tags-off": lambda s: s,  # the compile option, below
     "no-header-footer": lambda s: re.sub(r"header: context \{.*?\} \},\n", "", s, flags=re.S).replace(
         "footer: context { set text(8pt, fill: luma(90)); h(1fr); [Page #counter(page).display()]; h(1fr) })", ")"),
-    "boxed-math": lambda s: re.sub(r"(?<!\\)\$([^$]*)\$", lambda m: "#box($" + m.group(1) + "$)", s),
-    "figures-as-boxes": lambda s: re.sub(r'fitted\("[^"]*"\)', "box(width: 12cm, height: 6cm)", s),
+    "boxed-math": lambda s: FORMULA.sub(
+        lambda m: f"#box(math.equation(alt: {m.group(1)}, block: false, ${m.group(2)}$.body));", s),
+    "figures-as-boxes": lambda s: re.sub(r'fitted\("[^"]*", "(?:[^"\\]|\\.)*"\)', "box(width: 12cm, height: 6cm)", s),
+    "no-matrix": lambda s: re.sub(r"#text\([0-9.]+pt\)\[#table\(", "#text(7.5pt)[#let _t = table(", s),
+    "fr-columns": lambda s: re.sub(r"#table\(columns: \(([^)]*)\)",
+                                   lambda m: "#table(columns: (" + m.group(1).replace("auto", "1fr") + ")", s),
 }
 
 
