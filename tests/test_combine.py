@@ -112,9 +112,13 @@ def _elements(node) -> list:
 def test_the_combined_pdf_keeps_each_part_s_tags(parts, tmp_path):
     """One structure tree with each part's document element, pointing at the part's own pages; the
     parent tree's keys unique and each page's /StructParents one of them; the language and /MarkInfo;
-    the table header cells' ids unique and named by the data cells' /Headers."""
+    the table header cells' ids unique and named by the data cells' /Headers; the PDF version the
+    parts declare (1.7, the base of PDF/UA-1)."""
     engine.concatenate_pdfs(tmp_path / "all.pdf", parts, "All", "MEG373")
+    with pikepdf.Pdf.open(parts[0]) as part:
+        version = part.pdf_version
     with pikepdf.Pdf.open(tmp_path / "all.pdf") as pdf:
+        assert pdf.pdf_version == version == "1.7"
         root = pdf.Root
         assert str(root.Lang) == "en"
         assert bool(root.MarkInfo.Marked) is True

@@ -809,8 +809,9 @@ class Joined:
         out.docinfo["/Author"] = self.author
         buf = io.BytesIO()
         # object streams: the parts' thousands of small structure elements compressed together, which
-        # makes the file a third of the size and is quicker to write than each object on its own
-        out.save(buf, deterministic_id=True, object_stream_mode=pikepdf.ObjectStreamMode.generate)
+        # makes the file a third of the size and is quicker to write than each object on its own; the
+        # version the parts declare (Typst writes PDF 1.7, the base of PDF/UA-1), not pikepdf's default
+        out.save(buf, deterministic_id=True, object_stream_mode=pikepdf.ObjectStreamMode.generate, min_version="1.7")
         atomic_write(target, buf.getvalue())
         out.close()
 
