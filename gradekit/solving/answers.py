@@ -83,6 +83,8 @@ class Result:
     answers: Answers
     batch: ResultBatch | None = field(default=None, repr=False, compare=False)  # solved in (row ``index``)
     index: int = field(default=0, repr=False, compare=False)
+    # what a later phase makes once from this variant (its carry plan), under that phase's name
+    derived: dict = field(default_factory=dict, init=False, repr=False, compare=False)
 
     @property
     def virtual_work_residual(self) -> float:
@@ -349,6 +351,9 @@ class ResultBatch(Batched):
     cases: list[CaseBatch]
     answer_list: list[AnswerBatch]
     refused: Refusals
+    # what a later phase makes once from the whole batch (its catalogued mistakes, its carry plans),
+    # under that phase's name
+    derived: dict = field(default_factory=dict, init=False, repr=False, compare=False)
 
     @property
     def answers(self) -> dict[str, np.ndarray]:

@@ -153,19 +153,19 @@ def credited(
 def plan(result: Result) -> Plan:
     """The carry plan of one solved variant: its row of `plan_many` of the batch it was solved in
     (made once per batch and kept on it), kept on *result*."""
-    made = result.__dict__.get("_carry")
+    made = result.derived.get("carry")
     if made is None:
         if result.batch is None:
             raise ValueError("expected a Result taken from its solved batch (ResultBatch.take), got one without")
-        made = result.__dict__["_carry"] = plan_many(result.batch).at(result.index, result.answers)
+        made = result.derived["carry"] = plan_many(result.batch).at(result.index, result.answers)
     return made
 
 
 def plan_many(batch: ResultBatch) -> BatchPlan:
     """What can be carried in every variant of a solved batch, made once and kept on the batch."""
-    made = batch.__dict__.get("_carry")
+    made = batch.derived.get("carry")
     if made is None:
-        made = batch.__dict__["_carry"] = BatchPlan(batch)
+        made = batch.derived["carry"] = BatchPlan(batch)
     return made
 
 

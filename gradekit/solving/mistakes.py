@@ -58,9 +58,9 @@ def mistakes_many(batch: ResultBatch, values: dict, rows: np.ndarray | None = No
     """
     p, n = batch.problem, batch.n
     want = np.ones(n, bool) if rows is None else np.asarray(rows, bool)
-    memo = batch.__dict__.get("_mistakes")
+    memo = batch.derived.get("mistakes")
     if memo is None:
-        memo = batch.__dict__["_mistakes"] = _Found(batch)
+        memo = batch.derived["mistakes"] = _Found(batch)
     todo = want & ~memo.done
     if todo.any():
         sub = np.flatnonzero(todo)

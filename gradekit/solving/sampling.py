@@ -19,6 +19,7 @@ import math
 import re
 from collections import Counter
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 
@@ -155,12 +156,10 @@ class Variant:
     batch_values: dict | None = field(default=None, repr=False, compare=False)
     redraw: int = 0
 
-    @property
+    @cached_property
     def result(self) -> Result:
-        """This variant's row of its batch as a `Result` (made on first use)."""
-        if "_result" not in self.__dict__:
-            self.__dict__["_result"] = self.batch.take(self.index)
-        return self.__dict__["_result"]
+        """This variant's row of its batch as a `Result` (made on first use, then kept)."""
+        return self.batch.take(self.index)
 
 
 def _evaluate_rows(text: str, values: dict, n: int) -> np.ndarray:
