@@ -15,6 +15,7 @@ from dataclasses import replace
 from pathlib import Path
 
 from gradekit.bank.model import Problem
+from gradekit.bank.yamlfile import safe_data
 from gradekit.errors import ProblemError
 from gradekit.solving.keys import Tolerance
 from gradekit.solving.tolerances import from_row
@@ -31,7 +32,7 @@ def measured_tolerances(folder: Path) -> dict:
         import yaml
 
         try:
-            data = yaml.safe_load(f.read_text(encoding="utf-8")) if f.is_file() else {}
+            data = safe_data(f.read_text(encoding="utf-8")) if f.is_file() else {}
         except (OSError, yaml.YAMLError) as exc:
             raise ProblemError(f"expected the generated tolerance table, got {exc}", path=str(f)) from None
         _MEASURED_CACHE[f] = data if isinstance(data, dict) else {}

@@ -1,4 +1,5 @@
-"""YAML reading with line numbers, built on PyYAML's SafeLoader (no arbitrary object construction)."""
+"""YAML reading with line numbers, built on PyYAML's SafeLoader (no arbitrary object construction), in C
+(libyaml) where PyYAML has it."""
 
 from __future__ import annotations
 
@@ -37,35 +38,51 @@ MAX_DEPTH = 60  # nesting of mappings and sequences
 MAX_NODES = 200_000  # nodes after expanding every alias (a billion-laughs file has 10**9)
 
 
-class _Loader(yaml.SafeLoader):
-    """SafeLoader that records node lines, rejects duplicate keys and bounds nesting and aliases.
+_SAFE = getattr(yaml, "CSafeLoader", yaml.SafeLoader)  # libyaml's parser where PyYAML has it, same constructor
+
+
+class _Loader(_SAFE):
+    """SafeLoader that records node lines, rejects duplicate keys and bounds aliases.
 
     Every alias re-uses its anchor's whole subtree, so a few lines can stand for 10**9 nodes; the
     composed document is measured with aliases expanded (memoised per node, so measuring is
-    linear) and refused above `MAX_NODES`, before anything is constructed.
+    linear) and refused above `MAX_NODES`, before anything is constructed. Nesting is bounded
+    before composing (`_check_depth`).
     """
-
-    def __init__(self, stream) -> None:
-        super().__init__(stream)
-        self._depth = 0
-
-    def compose_node(self, parent, index):
-        self._depth += 1
-        try:
-            if self._depth > MAX_DEPTH:
-                mark = self.peek_event().start_mark
-                raise yaml.composer.ComposerError(
-                    None, None, f"nesting deeper than {MAX_DEPTH} levels", mark
-                )
-            return super().compose_node(parent, index)
-        finally:
-            self._depth -= 1
 
     def get_single_node(self):
         node = super().get_single_node()
         if node is not None:
             _measure(node)
         return node
+
+
+def safe_data(text: str):
+    """The plain data (mappings, lists, scalars) of a YAML *text*, as `yaml.safe_load` makes it, read by
+    libyaml where PyYAML has it; nesting bounded as `load` bounds it.
+
+    Raises:
+        yaml.YAMLError: the text is not YAML, or nests deeper than `MAX_DEPTH`.
+    """
+    _check_depth(text)
+    return yaml.load(text, Loader=_SAFE)  # noqa: S506 - SafeLoader's constructor (CSafeLoader is its C parser)
+
+
+def _check_depth(text: str) -> None:
+    """Raise a `ComposerError` at the first collection nested deeper than `MAX_DEPTH`.
+
+    Read from the parser's events, which libyaml makes without recursing: composing recurses once per
+    level in C, where a file of a million ``[`` would overflow the stack instead of raising.
+    """
+    depth = 0
+    for event in yaml.parse(text, Loader=_SAFE):
+        if isinstance(event, (yaml.SequenceStartEvent, yaml.MappingStartEvent)):
+            depth += 1
+            if depth > MAX_DEPTH:
+                raise yaml.composer.ComposerError(None, None, f"nesting deeper than {MAX_DEPTH} levels",
+                                                  event.start_mark)
+        elif isinstance(event, (yaml.SequenceEndEvent, yaml.MappingEndEvent)):
+            depth -= 1
 
 
 def _measure(root: yaml.Node) -> None:
@@ -133,9 +150,8 @@ def load(path: Path | str) -> LineDict:
             f"expected a readable UTF-8 YAML file, got {exc.__class__.__name__}: {exc}", path=str(path)
         ) from None
     try:
-        data = yaml.load(text, Loader=_Loader)  # noqa: S506 - _Loader is a SafeLoader subclass
-    except RecursionError:
-        raise ProblemError(f"expected YAML nested at most {MAX_DEPTH} levels, got deeper", path=str(path)) from None
+        _check_depth(text)
+        data = yaml.load(text, Loader=_Loader)  # noqa: S506 - _Loader constructs as SafeLoader does (SafeConstructor)
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         line = mark.line + 1 if mark else None

@@ -63,11 +63,12 @@ def defaults() -> dict[tuple[str, str], Tolerance]:
     """``(method, kind) -> Tolerance`` from the bank's generated ``_tolerances.yaml``."""
     import yaml
 
+    from gradekit.bank.yamlfile import safe_data
     from gradekit.resources import resource_dir
 
     f = resource_dir("problem_bank") / "_tolerances.yaml"
     try:
-        data = yaml.safe_load(f.read_text(encoding="utf-8")) or {}
+        data = safe_data(f.read_text(encoding="utf-8")) or {}
         table = data[SECTION]
         out = {(m, k): from_row(r) for m, kinds in table.items() for k, r in kinds.items()}
     except (OSError, yaml.YAMLError, KeyError, TypeError, ValueError) as exc:
