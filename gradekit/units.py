@@ -112,6 +112,18 @@ def factor(from_unit: str, to_unit: str) -> float:
     raise GradekitError(f"expected a unit of the same kind as {to_unit!r}, got {from_unit!r}")
 
 
+@lru_cache(maxsize=1024)
+def is_angular(unit: str) -> bool:
+    """Whether *unit* measures an angle or an angle per unit of time (``deg``, ``rad``, ``rad/s``,
+    ``rad/s**2``, ``rpm``): pint counts the radian as dimensionless, so these are the units whose only
+    dimension is time to a negative power, or none. A unit pint cannot read is not one."""
+    try:
+        dims = dict(_parse(unit).dimensionality)
+    except GradekitError:
+        return False
+    return not dims or (dims.keys() == {"[time]"} and dims["[time]"] < 0)
+
+
 def convert(value: float, from_unit: str, to_unit: str) -> float:
     """Convert *value* from one unit to another (see `factor`)."""
     if from_unit == to_unit:

@@ -82,6 +82,33 @@ def test_generic_mistakes() -> None:
 
 
 @pytest.mark.parametrize(
+    ("unit", "names"),
+    [
+        ("deg", ["sign flipped", "radians for degrees"]),
+        ("rad/s", ["sign flipped", "degrees for radians"]),
+        ("rad/s**2", ["sign flipped", "degrees for radians"]),
+        ("N*m", ["sign flipped", "×1000 unit slip", "÷1000 unit slip"]),
+        ("mm/s**2", ["sign flipped", "×1000 unit slip", "÷1000 unit slip"]),
+    ],
+)
+def test_a_unit_slip_is_offered_only_where_a_prefix_can_slip(unit: str, names: list[str]) -> None:
+    """An angle or an angle per time takes no SI prefix, so it has no ×1000 or ÷1000 slip."""
+    assert [m.name for m in generic_mistakes(KeyEntry("1", "p1", "p1.x", 10.0, unit, Tolerance()))] == names
+
+
+def test_a_wrong_direction_round_the_circle_from_1000_times_its_key_is_no_unit_slip() -> None:
+    """Key 10° (band ±2°): 1000 × 10° = 10,000° = 27 × 360° + 280°, so 280° lies on the ×1000 value
+    around the circle; the sign flip (350°) is 70° away and radians for degrees (0.17°) 80°, so nothing
+    catalogued explains it. Likewise 2,000 rad/s against a key of 2 rad/s."""
+    direction = KeyEntry("1", "p1", "p1.dir", 10.0, "deg", Tolerance(rel=0.0, abs=2.0, period=360.0))
+    assert diagnose(direction, 280.0) is None
+    assert diagnose(direction, 350.0).name == "sign flipped"
+    rate = KeyEntry("1", "p1", "p1.w", 2.0, "rad/s", Tolerance(rel=0.01))
+    assert diagnose(rate, 2000.0) is None
+    assert compare(rate, Answer("p1.w", "2000", "", 2000.0, "", 2)).diagnosis is None
+
+
+@pytest.mark.parametrize(
     ("raw", "unit", "correct", "diagnosis"),
     [
         ("1.12", "", True, None),
@@ -178,10 +205,11 @@ def test_the_closest_mistake_is_named_and_an_own_one_wins_a_tie() -> None:
 
 
 def test_a_direction_s_closest_mistake_is_measured_around_the_circle() -> None:
-    """350° against a key of 10° (band ±0.1°): the sign flip (−10°) is 0° away around the circle, the ×1000
-    slip (10,000°, band ±100°) 70°, 0.7 of its band. On the number line the flip is 3,600 bands away and
-    the slip 96.5, which named the slip."""
-    direction = KeyEntry("1", "p1", "p1.dir", 10.0, "deg", Tolerance(rel=0.01, period=360.0))
+    """350° against a key of 10° (band ±0.1°): the sign flip (−10°) is 0° away around the circle, a catalogued
+    mistake of 10,000° (band ±100°) 70°, 0.7 of its band. On the number line the flip is 3,600 bands away and
+    the other mistake 96.5, which named that one."""
+    far = Mistake("static answer", "own static", 10_000.0)
+    direction = KeyEntry("1", "p1", "p1.dir", 10.0, "deg", Tolerance(rel=0.01, period=360.0), mistakes=(far,))
     assert diagnose(direction, 350.0).name == "sign flipped"
     assert diagnose(direction, 350.0 + 720.0).name == "sign flipped"
 

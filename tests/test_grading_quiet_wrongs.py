@@ -157,7 +157,7 @@ def test_each_catalogued_mistake_is_named_for_its_own_value_on_every_problem(tmp
             if m.value == e.value:
                 continue
             found = diagnose(e, m.value)
-            # the same value, for a direction the same modulo a full turn (90,000° is 0°)
+            # the same value, for a direction the same modulo a full turn (−30° is 330°)
             assert found is not None and abs(float(e.tolerance.difference(found.value, m.value))) <= 1e-12 * abs(
                 m.value), (e.key, m.name)
             checked += 1

@@ -13,7 +13,7 @@ from gradekit.errors import GradekitError
 from gradekit.grading.reader import Answer, Issue, Submission
 from gradekit.roster import Student
 from gradekit.solving.keys import KeyEntry, Mistake, PartialCredit, half_widths, tolerance_columns, within, wrapped
-from gradekit.units import factor
+from gradekit.units import factor, is_angular
 
 _DEG = 180.0 / math.pi
 
@@ -38,12 +38,13 @@ class _Generic(NamedTuple):
     made: Callable  # the mistaken value from v (a float, or an array of them)
     units: tuple[str, ...] = ()  # only for a unit starting with one of these (spaces removed, lower case); (): any
     nonzero: bool = False  # only where v ≠ 0
+    prefixed: bool = False  # only for a unit with an SI prefix to slip: no angle nor angle per time (`is_angular`)
 
 
 _GENERIC = (
     _Generic("sign flipped", "the sign is reversed{convention}", lambda v: -v, nonzero=True),
-    _Generic("×1000 unit slip", "1000 times too large (e.g. N·mm for N·m)", lambda v: v * 1000),
-    _Generic("÷1000 unit slip", "1000 times too small (e.g. N·m for N·mm)", lambda v: v / 1000),
+    _Generic("×1000 unit slip", "1000 times too large (e.g. N·mm for N·m)", lambda v: v * 1000, prefixed=True),
+    _Generic("÷1000 unit slip", "1000 times too small (e.g. N·m for N·mm)", lambda v: v / 1000, prefixed=True),
     _Generic("degrees for radians", "given in degrees, asked in radians", lambda v: v * _DEG, ("rad",)),
     _Generic("radians for degrees", "given in radians, asked in degrees", lambda v: v / _DEG, ("deg", "°")),
 )
@@ -56,8 +57,8 @@ def _generic_columns(keys: np.ndarray, units: Sequence[str]) -> tuple[np.ndarray
     """The `_GENERIC` mistakes of many key values (*keys*, each in its unit of *units*) as (keys ×
     kinds) columns: each mistaken value, and where the kind applies."""
     index = {u: i for i, u in enumerate(dict.fromkeys(units))}  # each distinct unit decided once
-    by_unit = np.array([[not g.units or u.replace(" ", "").lower().startswith(g.units) for g in _GENERIC]
-                        for u in index], bool)
+    by_unit = np.array([[(not g.units or u.replace(" ", "").lower().startswith(g.units))
+                         and not (g.prefixed and is_angular(u)) for g in _GENERIC] for u in index], bool)
     applies = by_unit[[index[u] for u in units]] & (~np.array([g.nonzero for g in _GENERIC]) | (keys != 0)[:, None])
     with np.errstate(over="ignore", invalid="ignore"):
         made = np.stack([g.made(keys) for g in _GENERIC], axis=1)
@@ -81,7 +82,8 @@ def generic_mistakes(entry: KeyEntry) -> tuple[Mistake, ...]:
 
     Returns:
         ``sign flipped`` (−v, when v ≠ 0), ``×1000 unit slip`` and ``÷1000 unit slip`` (e.g.
-        N·mm for N·m), and for angular units ``degrees for radians`` (v·180/π) or
+        N·mm for N·m; not for an angle or an angle per time, which have no prefix to slip:
+        `gradekit.units.is_angular`), and for angular units ``degrees for radians`` (v·180/π) or
         ``radians for degrees`` (v·π/180).
     """
     made, applies = _generic_columns(np.array([entry.value], float), [entry.unit])
