@@ -1,6 +1,6 @@
 """Allow `python -m gradekit`."""
 
-from gradekit.cli import main
+from gradekit.cli import run
 
 if __name__ == "__main__":  # pragma: no cover
-    main()
+    run()

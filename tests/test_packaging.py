@@ -23,3 +23,11 @@ def test_every_package_of_the_source_tree_is_in_the_wheel():
     for name, folder in config["package-dir"].items():  # the bank and the templates, from the checkout's top
         assert name in listed and (ROOT / folder).is_dir()
 
+
+
+def test_the_program_is_the_command_line_s_entry_point():
+    import gradekit.cli
+
+    entry = tomllib.loads((ROOT / "pyproject.toml").read_text(encoding="utf-8"))["project"]["scripts"]["gradekit"]
+    module, _, name = entry.partition(":")
+    assert module == "gradekit.cli" and callable(getattr(gradekit.cli, name))
