@@ -36,6 +36,8 @@ _SUBS = [
     (re.compile(r"\bsec\b"), "s"),
     (re.compile(r"\bIb\b|\bIbf\b"), "lbf"),  # OCR'd "Ib" in the course documents
     (re.compile(r"\bdeg\b|°"), "degree"),
+    (re.compile(r"\brevs?\b"), "revolution"),  # rev/min, rev/s: a machine's speed as its drawings give it
+    (re.compile(r"\bRPM\b|(?<![A-Za-z])r/min\b"), "rpm"),
 ]
 
 
