@@ -111,26 +111,33 @@ def test_long_and_deep_expressions_are_field_errors(tmp_path: Path) -> None:
     assert line.startswith(f"{f}:28: constraints.require[0].expr: expected an expression nested at most 40 deep")
 
 
-@pytest.mark.parametrize("levels", [5_000, 990_000])  # the second just under the 2 MB a bank file may have
+# libyaml's composer recurses in C once per level: a million levels would overflow the stack (the process
+# dies) rather than raise. Some libyaml versions refuse 1,000 levels themselves, before gradekit's bound of
+# 60 is read, in their own words; either way one line, naming the file and the line.
+NESTING = ("nesting deeper than 60 levels", "exceeded maximum nesting depth")
+
+
+@pytest.mark.parametrize("levels", [100, 5_000, 990_000])  # the last just under the 2 MB a bank file may have
 def test_deeply_nested_yaml_is_a_file_line_error(tmp_path: Path, levels: int) -> None:
-    """Refused before composing: libyaml's composer recurses in C once per level, and a million levels
-    would overflow the stack (the process dies) rather than raise."""
     f = tmp_path / "nested.yaml"
     f.write_text("id: x\ntitle: " + "[" * levels + "]" * levels + "\n", encoding="utf-8")
     r = run("solve", str(f))
     assert r.exit_code == 1
-    assert one_line(r.output) == f"{f}:2: expected valid YAML, got nesting deeper than 60 levels"
+    assert one_line(r.output) in {f"{f}:2: expected valid YAML, got {said}" for said in NESTING}
+    if levels < 1_000:
+        assert one_line(r.output) == f"{f}:2: expected valid YAML, got {NESTING[0]}"
 
 
 def test_a_deeply_nested_tolerance_table_is_refused_naming_it(tmp_path: Path) -> None:
     from gradekit.bank.measured import measured_tolerances
     from gradekit.errors import ProblemError
 
-    (tmp_path / "_tolerances.yaml").write_text("a: " + "[" * 990_000 + "]" * 990_000 + "\n", encoding="utf-8")
+    f = tmp_path / "_tolerances.yaml"
+    f.write_text("a: " + "[" * 990_000 + "]" * 990_000 + "\n", encoding="utf-8")
     with pytest.raises(ProblemError) as err:
         measured_tolerances(tmp_path)
-    assert err.value.format_message().startswith(f"{tmp_path / '_tolerances.yaml'}: expected the generated "
-                                                 "tolerance table, got nesting deeper than 60 levels")
+    assert err.value.format_message() in {f"{f}:1: expected the generated tolerance table, got {said}"
+                                          for said in NESTING}
 
 
 def test_billion_laughs_is_refused_in_well_under_a_second(tmp_path: Path) -> None:

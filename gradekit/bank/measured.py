@@ -29,12 +29,11 @@ def measured_tolerances(folder: Path) -> dict:
     benchmarks/derive_tolerances.py), or {} when there is none."""
     f = folder / MEASURED
     if f not in _MEASURED_CACHE:
-        import yaml
-
         try:
-            data = safe_data(f.read_text(encoding="utf-8")) if f.is_file() else {}
-        except (OSError, yaml.YAMLError) as exc:
+            text = f.read_text(encoding="utf-8") if f.is_file() else "{}"
+        except OSError as exc:
             raise ProblemError(f"expected the generated tolerance table, got {exc}", path=str(f)) from None
+        data = safe_data(text, f, "the generated tolerance table")
         _MEASURED_CACHE[f] = data if isinstance(data, dict) else {}
     return _MEASURED_CACHE[f]
 

@@ -57,15 +57,28 @@ class _Loader(_SAFE):
         return node
 
 
-def safe_data(text: str):
-    """The plain data (mappings, lists, scalars) of a YAML *text*, as `yaml.safe_load` makes it, read by
-    libyaml where PyYAML has it; nesting bounded as `load` bounds it.
+def safe_data(text: str, path: Path | str, expected: str):
+    """The plain data (mappings, lists, scalars) of the YAML *text* of file *path*, as `yaml.safe_load` makes
+    it, read by libyaml where PyYAML has it; nesting bounded as `load` bounds it.
 
     Raises:
-        yaml.YAMLError: the text is not YAML, or nests deeper than `MAX_DEPTH`.
+        ProblemError: the text is not YAML or nests too deep ("expected *expected*, got …", one line, naming
+            *path* and the line).
     """
-    _check_depth(text)
-    return yaml.load(text, Loader=_SAFE)  # noqa: S506 - SafeLoader's constructor (CSafeLoader is its C parser)
+    try:
+        _check_depth(text)
+        return yaml.load(text, Loader=_SAFE)  # noqa: S506 - SafeLoader's constructor (CSafeLoader is its C parser)
+    except yaml.YAMLError as exc:
+        raise _refused(exc, path, expected) from None
+
+
+def _refused(exc: yaml.YAMLError, path: Path | str, expected: str, hint: str = "") -> ProblemError:
+    """*exc* as one line naming *path* and the line it points at. PyYAML's message may run over lines, and
+    libyaml's own nesting limit (some versions have one, at 1,000 levels) speaks before `_check_depth`."""
+    mark = getattr(exc, "problem_mark", None)
+    problem = " ".join((getattr(exc, "problem", None) or str(exc)).split())
+    return ProblemError(f"expected {expected}, got {problem}{hint}", path=str(path),
+                        line=mark.line + 1 if mark else None)
 
 
 def _check_depth(text: str) -> None:
@@ -153,12 +166,7 @@ def load(path: Path | str) -> LineDict:
         _check_depth(text)
         data = yaml.load(text, Loader=_Loader)  # noqa: S506 - _Loader constructs as SafeLoader does (SafeConstructor)
     except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None)
-        line = mark.line + 1 if mark else None
-        problem = getattr(exc, "problem", None) or str(exc)
-        raise ProblemError(
-            f"expected valid YAML, got {problem}{_flow_hint(text, mark)}", path=str(path), line=line
-        ) from None
+        raise _refused(exc, path, "valid YAML", _flow_hint(text, getattr(exc, "problem_mark", None))) from None
     if not isinstance(data, dict):
         raise ProblemError(f"expected a mapping at the top, got {type(data).__name__}", path=str(path), line=1)
     return data

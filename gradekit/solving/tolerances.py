@@ -61,17 +61,15 @@ def to_row(tol: Tolerance) -> dict:
 @functools.lru_cache(maxsize=1)
 def defaults() -> dict[tuple[str, str], Tolerance]:
     """``(method, kind) -> Tolerance`` from the bank's generated ``_tolerances.yaml``."""
-    import yaml
-
     from gradekit.bank.yamlfile import safe_data
     from gradekit.resources import resource_dir
 
     f = resource_dir("problem_bank") / "_tolerances.yaml"
     try:
-        data = safe_data(f.read_text(encoding="utf-8")) or {}
+        data = safe_data(f.read_text(encoding="utf-8"), f, "the generated tolerance table") or {}
         table = data[SECTION]
         out = {(m, k): from_row(r) for m, kinds in table.items() for k, r in kinds.items()}
-    except (OSError, yaml.YAMLError, KeyError, TypeError, ValueError) as exc:
+    except (OSError, KeyError, TypeError, ValueError) as exc:
         raise GradekitError(
             f"{f}: expected the generated tolerance table with its {SECTION} section "
             f"(python benchmarks/derive_tolerances.py), got {type(exc).__name__}: {exc}"
