@@ -8,8 +8,9 @@ from pathlib import Path
 import pytest
 
 from gradekit.grading.compare import compare, diagnose, generic_mistakes
-from gradekit.grading.exports import feedback_html, feedback_markdown, safe_name, safe_names
+from gradekit.grading.feedback import feedback_html, feedback_markdown
 from gradekit.grading.reader import Answer
+from gradekit.roster import safe_name, safe_names
 from gradekit.solving.keys import KeyEntry, Mistake, Tolerance
 
 

@@ -179,7 +179,7 @@ def test_solve_with_assignment_prints_the_sheets_values(tmp_path):
 
 def test_band_hint_says_how_far_in_tolerances_never_the_amount():
     from gradekit.grading.compare import grade_student
-    from gradekit.grading.exports import feedback_markdown
+    from gradekit.grading.feedback import feedback_markdown
     from gradekit.grading.reader import Answer, Submission
 
     answers = (Answer("p1.dir", "12", "deg", 12.0, "deg", 2), Answer("p1.F", "103", "N", 103.0, "N", 3),

@@ -18,15 +18,7 @@ from pathlib import Path
 from gradekit.csvsafe import atomic_write, write_csv, write_staged
 from gradekit.errors import GradekitError
 from gradekit.grading.compare import StudentGrade
-from gradekit.grading.feedback import (  # noqa: F401 (names batch.py imports from here)
-    FeedbackMemo,
-    credit_text,
-    feedback_html,
-    feedback_markdown,
-    feedback_pages,
-    fmt,
-)
-from gradekit.grading.feedback import md_cell as _md_cell  # noqa: F401 (batch.py's name for it)
+from gradekit.grading.feedback import FeedbackMemo, feedback_pages
 from gradekit.grading.integrity import IntegrityFlag
 from gradekit.grading.lms import (  # noqa: F401 (re-exported)
     canvas_feedback_name,
@@ -38,7 +30,7 @@ from gradekit.grading.lms import (  # noqa: F401 (re-exported)
     write_moodle,
 )
 from gradekit.grading.report import report_markdown, write_histogram
-from gradekit.roster import safe_name, safe_names  # noqa: F401 (re-exported: output file names)
+from gradekit.roster import safe_names
 
 log = logging.getLogger(__name__)
 
