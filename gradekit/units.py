@@ -94,12 +94,20 @@ def check(unit: str) -> None:
 def factor(from_unit: str, to_unit: str) -> float:
     """The number to multiply a value in *from_unit* by to express it in *to_unit*.
 
-    A bare ``lb`` is read as pound-force when pound-mass would not fit the target's dimension.
+    A bare ``lb`` is read as pound-force when pound-mass would not fit the target's dimension. Hertz
+    and a unit that names an angle are not converted into each other: pint takes 1 Hz for 1 rad/s, a
+    student writing "2 Hz" for a shaft's speed may mean 2 rev/s or 2 rad/s, so the answer is refused
+    with a message saying how to write it, never graded on a guess.
 
     Raises:
         GradekitError: a unit is unreadable or the two measure different things.
     """
     src, dst = _parse(from_unit), _parse(to_unit)
+    if _cycles(src) != _cycles(dst) and (_turning(src) or _turning(dst)):
+        raise GradekitError(
+            f"expected {to_unit!r} or a unit that converts to it without doubt, got {from_unit!r} (hertz counts "
+            "cycles: write rev/s for turns a second, rad/s for radians a second)"
+        )
     reg = registry()
     for candidate in (src, None):
         if candidate is None:
@@ -112,6 +120,19 @@ def factor(from_unit: str, to_unit: str) -> float:
         except Exception:  # DimensionalityError
             continue
     raise GradekitError(f"expected a unit of the same kind as {to_unit!r}, got {from_unit!r}")
+
+
+def _cycles(unit) -> bool:
+    """A frequency (Hz, kHz): cycles a second."""
+    return "hertz" in str(unit)
+
+
+_ANGLES = ("radian", "degree", "turn", "revolution", "arcminute", "arcsecond", "gradian")
+
+
+def _turning(unit) -> bool:
+    """A unit that names an angle (rad/s, rpm, deg, rev/min)."""
+    return any(name in str(unit) for name in _ANGLES)
 
 
 @lru_cache(maxsize=1024)
