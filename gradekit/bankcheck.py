@@ -26,7 +26,7 @@ from gradekit.bank.measured import measured_tolerances
 from gradekit.bank.registry import load_bank
 from gradekit.errors import GradekitError
 from gradekit.grading.compare import generic_mistakes
-from gradekit.mechanics.forces import VW_LIMIT, Conditioning
+from gradekit.mechanics.forces import VW_LIMIT
 from gradekit.numbers import fmt
 from gradekit.solving.answers import published_mismatches
 from gradekit.solving.keys import KeyEntry, Tolerance
@@ -80,7 +80,7 @@ def _worst_condition(batch, sel: np.ndarray) -> float:
     worst = 0.0
     for case in batch.cases:
         c = case.solutions.conditioning
-        worst = max(worst, float(Conditioning(c.systems[sel], c.refused[sel], None).values.max()))
+        worst = max(worst, float(c.take(sel).values.max()))
     return worst
 
 

@@ -88,6 +88,35 @@ def test_condition_bounds_decide_like_the_svd():
     assert np.array_equal(c.values, exact)
 
 
+def test_condition_of_scaled_systems_is_that_of_the_systems_formed():
+    """Given a, the row and column scales and a⁻¹·diag(rows)⁻¹ (what the solver's one solve gives), the
+    bounds and the exact κ are those of S = diag(rows)·a·diag(cols) formed in full (numpy's SVD)."""
+    rng = np.random.default_rng(11)
+    n = 300
+    a = rng.normal(size=(n, 5, 5))
+    near = a[::4]  # nearly singular: a column within 1e-7 to 1e-2 of another
+    near[:, :, 0] = near[:, :, 1] + 10.0 ** rng.uniform(-7, -2, size=(len(near), 1)) * rng.normal(size=(len(near), 5))
+    a[::4] = near
+    rows, cols = 10.0 ** rng.uniform(-3, 3, size=(n, 5)), 10.0 ** rng.uniform(-3, 3, size=(n, 5))
+    s = rows[:, :, None] * a * cols[:, None, :]
+    exact = np.linalg.cond(s)
+    inv = np.linalg.inv(a) / rows[:, None, :]  # a⁻¹·R⁻¹
+    refused = np.zeros(n, bool)
+    refused[5] = True
+    for limit in (1e2, 1e5, 1e9):
+        c = Conditioning(a, refused, inv, rows, cols)
+        assert np.array_equal(c.above(limit), (exact > limit) | refused)
+        sound = ~refused & (exact < 1e10)  # beyond, the SVD's own κ is off by more than the bounds' slack
+        assert np.all(c.lower[sound] <= exact[sound]) and np.all(exact[sound] <= c.upper[sound])
+    frobenius = np.linalg.norm(s, axis=(1, 2)) * np.linalg.norm(np.linalg.inv(s), axis=(1, 2))
+    well = ~refused & (exact < 1e10)
+    assert np.allclose(c.upper[well], frobenius[well], rtol=1e-6)
+    c = Conditioning(a, refused, inv, rows, cols)
+    assert np.allclose(c.values[~refused], exact[~refused], rtol=1e-12) and c.values[5] == np.inf
+    sel = np.arange(n) % 3 == 0
+    assert np.allclose(c.take(sel).values[~refused[sel]], exact[sel][~refused[sel]], rtol=1e-12)
+
+
 def test_a_full_crank_cycle_in_one_batch_does_no_net_work():
     """With constant speed and constant loads, the driver's work over a whole turn balances the
     change of kinetic energy and the loads' work, both zero for a periodic motion: the mean drive

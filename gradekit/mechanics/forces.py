@@ -185,30 +185,47 @@ class Conditioning:
     above this bound?". The Frobenius condition number κ_F = ‖A‖_F·‖A⁻¹‖_F bounds the answer:
     κ_F / n ≤ κ ≤ κ_F for an n×n system, so an SVD is needed only for the variants whose bound
     straddles the limit (and for the values someone reads). Refused (NaN) systems have κ = inf.
+
+    The systems are S = diag(*rows*)·*a*·diag(*cols*) (the unit-free scaling; none by default) and
+    *inverses* are a⁻¹·diag(*rows*)⁻¹, what one solve with those right-hand sides gives (None: an
+    exactly singular system in the batch, no cheap bound). Neither S nor S⁻¹ is formed for the whole
+    batch: at class scale each is as large as the system itself, and the Frobenius norms are sums.
     """
 
-    def __init__(self, systems: np.ndarray, refused: np.ndarray, inverses: np.ndarray | None) -> None:
-        self.systems = systems
+    def __init__(self, a: np.ndarray, refused: np.ndarray, inverses: np.ndarray | None,
+                 rows: np.ndarray | None = None, cols: np.ndarray | None = None) -> None:
+        self.a = a
         self.refused = refused
-        n = systems.shape[-1]
+        self.rows = np.ones(a.shape[:2]) if rows is None else rows
+        self.cols = np.ones((a.shape[0], a.shape[2])) if cols is None else cols
+        n = a.shape[-1]
         with np.errstate(all="ignore"):
-            if inverses is not None:
-                upper = np.sqrt(np.einsum("nij,nij->n", systems, systems) * np.einsum("nij,nij->n", inverses, inverses))
-            else:  # an exactly singular system in the batch: no cheap bound
-                upper = np.full(len(systems), np.nan)
+            if inverses is not None:  # ‖S‖_F² = Σ (r_i a_ij c_j)², ‖S⁻¹‖_F² = Σ (inv_ij / c_i)²
+                upper = np.sqrt(np.einsum("nij,nij,ni,nj->n", a, a, self.rows**2, self.cols**2, optimize=True)
+                                * np.einsum("nij,nij,ni->n", inverses, inverses, self.cols**-2.0, optimize=True))
+            else:
+                upper = np.full(len(a), np.nan)
         # a hair of slack on both bounds, so rounding in κ_F never decides what only an SVD can
         self.upper = np.where(refused, np.inf, upper * (1 + 1e-9))
         self.lower = self.upper / n * (1 - 2e-9)
-        self._exact = np.full(len(systems), np.nan)
+        self._exact = np.full(len(a), np.nan)
+
+    def systems(self, mask: np.ndarray) -> np.ndarray:
+        """The unit-free systems S of the variants *mask* selects."""
+        return self.rows[mask][:, :, None] * self.a[mask] * self.cols[mask][:, None, :]
+
+    def take(self, mask: np.ndarray) -> Conditioning:
+        """The variants *mask* selects, their κ not yet computed."""
+        return Conditioning(self.a[mask], self.refused[mask], None, self.rows[mask], self.cols[mask])
 
     def _compute(self, mask: np.ndarray) -> None:
         todo = mask & np.isnan(self._exact)
         if todo.any():
             with np.errstate(all="ignore"):
                 try:
-                    self._exact[todo] = np.linalg.cond(self.systems[todo])
+                    self._exact[todo] = np.linalg.cond(self.systems(todo))
                 except np.linalg.LinAlgError:
-                    self._exact[todo] = [_cond1(a) for a in self.systems[todo]]
+                    self._exact[todo] = [_cond1(a) for a in self.systems(todo)]
             self._exact[todo & self.refused] = np.inf
             self._exact[todo & ~np.isfinite(self._exact)] = np.inf
 
@@ -536,10 +553,8 @@ def solve_many(link: Linkage, an: Analysis, virtual: Linkage | None = None) -> S
         cs[:, couple_cols] = scale[:, None]
         geometry_bad = refused.mask.copy()
         eye = np.eye(nrow, ncol)
-        systems = A * rs[:, :, None] * cs[:, None, :]
         A_safe = A
         if geometry_bad.any():  # refused variants get an identity, so the batch still factorises
-            systems = np.where(geometry_bad[:, None, None], eye, systems)
             A_safe = np.where(geometry_bad[:, None, None], eye, A)
         g = len(group_names)
         # One factorisation gives the unknowns of every group and the inverse of the unit-free
@@ -550,10 +565,10 @@ def solve_many(link: Linkage, an: Analysis, virtual: Linkage | None = None) -> S
         rhs[:, diag, g + diag] = 1.0 / rs
         try:
             Y = np.linalg.solve(A_safe, rhs)
-            cond = Conditioning(systems, geometry_bad, Y[:, :, g:] / cs[:, :, None])
+            cond = Conditioning(A_safe, geometry_bad, Y[:, :, g:], rs, cs)
         except np.linalg.LinAlgError:  # an exactly singular system (a toggle): refuse it, then solve
             Y = None
-            cond = Conditioning(systems, geometry_bad, None)
+            cond = Conditioning(A_safe, geometry_bad, None, rs, cs)
         max_cond = np.broadcast_to(np.asarray(an.max_condition, float), (n,))
         ill = ~geometry_bad & cond.above(max_cond)
         refused.add(
