@@ -4,7 +4,9 @@ For each class size the benchmark writes a roster, the keys `generate` would fre
 manifest.json for examples/hw5.yaml: 4 problems, 43 answers a student), and one submission per
 student: most answers right to 4 significant figures, some wrong, some in other unit spellings, a
 few blank or unreadable cells, and 5 % copied from a classmate. It then times the command in a fresh
-process: with `--manifest` (the frozen keys) and without (keys re-derived for the class). Start-up
+process: with `--manifest` (the frozen keys) and without (keys re-derived for the class); and, for
+what the command cannot do without, a fresh process that only starts as the command does, reads every
+submission and writes the bytes of the frozen-keys run's outputs again (`_BARE`). Start-up
 is excluded by the marginal rate between the two sizes: (3,000 − 300) / (t₃₀₀₀ − t₃₀₀). The time
 includes reading every file, comparing, copy detection and writing grades.csv, canvas.csv,
 moodle.csv, a feedback file per student, report.md and histogram.svg.
@@ -95,6 +97,42 @@ def time_grade(folder: Path, manifest: bool, run: int = 0) -> float:
     return seconds
 
 
+# What the command costs before it grades anything, in a fresh process as the command runs: start-up
+# (imports, the assignment, pint's registry), reading every submission's bytes, and writing the bytes
+# of a finished run's outputs again into a new folder. What is left of the command's time is grading.
+_BARE = """
+import os, sys, time
+t = time.perf_counter()
+import gradekit.cli, gradekit.grading.batch
+from gradekit import units
+from gradekit.assignment import load_assignment
+from gradekit.csvsafe import write_staged
+load_assignment(sys.argv[1]); units.factor("N*mm", "N*m")
+for e in os.scandir(sys.argv[2]):
+    fd = os.open(e.path, os.O_RDONLY); os.read(fd, 2_000_000); os.close(fd)
+start = time.perf_counter() - t
+done, out = sys.argv[3], sys.argv[4]
+files = [os.path.relpath(os.path.join(r, n), done) for r, _, names in os.walk(done) for n in names]
+data = [open(os.path.join(done, f), "rb").read() for f in files]  # not timed: the command makes these
+t = time.perf_counter()
+for f, b in zip(files, data):
+    os.makedirs(os.path.dirname(os.path.join(out, f)), exist_ok=True)
+    write_staged(os.path.join(out, f), b)
+print(start + time.perf_counter() - t)
+"""
+
+
+def time_bare(folder: Path, run: int = 0) -> float:
+    """Seconds of start-up, reading and writing alone (`_BARE`) for *folder*'s class, the outputs
+    those of its frozen-keys run *run*."""
+    out = folder / f"bare-{run}"
+    r = subprocess.run([sys.executable, "-c", _BARE, str(ASSIGNMENT), str(folder / "subs"),
+                        str(folder / f"graded-m-{run}"), str(out)], capture_output=True, text=True)
+    if r.returncode != 0:
+        raise RuntimeError(f"the bare run failed: {r.stderr[-2000:]}")
+    return float(r.stdout)
+
+
 def create_cost(folder: Path, n: int = 300) -> float:
     """Microseconds to create an empty file in *folder* (the command creates two per student).
 
@@ -118,15 +156,16 @@ def run(quick: bool = False) -> dict:
             folder = Path(tmp) / str(n)
             folder.mkdir()
             prepare(folder, n)
-            times = {"manifest": [], "rederived": []}
+            times = {"manifest": [], "rederived": [], "bare": []}
             for i in range(RUNS if not quick else 1):  # interleaved, the median of each
-                for k in times:
-                    times[k].append(time_grade(folder, k == "manifest", i))
+                times["manifest"].append(time_grade(folder, True, i))
+                times["bare"].append(time_bare(folder, i))
+                times["rederived"].append(time_grade(folder, False, i))
             rows.append({"students": n, **{k: statistics.median(v) for k, v in times.items()}})
     load.append(os.getloadavg()[0])
     a, b = rows
-    marginal = {k: (b["students"] - a["students"]) / (b[k] - a[k]) for k in ("manifest", "rederived")}
-    ratio = {k: b[k] / a[k] for k in ("manifest", "rederived")}
+    marginal = {k: (b["students"] - a["students"]) / (b[k] - a[k]) for k in ("manifest", "rederived", "bare")}
+    ratio = {k: b[k] / a[k] for k in ("manifest", "rederived", "bare")}
     lines = [
         f"The whole command `gradekit grade` (fresh process) on examples/hw5.yaml (43 answers a student), "
         f"{small:,} and {large:,} students; marginal rate = ({large:,} − {small:,}) / (t{large} − t{small}). "
@@ -135,11 +174,12 @@ def run(quick: bool = False) -> dict:
         f"(the command runs in one process); creating a file "
         f"in the folder took {create:,.0f} µs (about 20 µs on a quiet disk).",
         "",
-        "| keys | " + " | ".join(f"{r['students']:,} students" for r in rows) + " | marginal submissions/s "
+        "| run | " + " | ".join(f"{r['students']:,} students" for r in rows) + " | marginal submissions/s "
         f"| t{large} / t{small} |",
         "|---|---|---|---|---|",
     ]
-    for k, label in (("manifest", "frozen (`--manifest`)"), ("rederived", "re-derived for the class")):
+    for k, label in (("manifest", "frozen (`--manifest`)"), ("rederived", "re-derived for the class"),
+                     ("bare", "start-up, reading and writing alone")):
         lines.append(f"| {label} | " + " | ".join(f"{r[k]:.1f} s" for r in rows)
                      + f" | {marginal[k]:,.0f} | {ratio[k]:.1f} |")
     return {"name": "grade", "rows": rows, "marginal": marginal, "ratio": ratio, "load": load, "create_us": create,
