@@ -186,6 +186,7 @@ def grade(
     warn=None,
     progress=None,
     exports: list[str] | None = None,
+    hand: str | Path | None = None,
 ):
     """What ``gradekit grade`` does: grade every submission against the class's keys and write
     grades, LMS exports, feedback and the report into *out*. Returns the batch result.
@@ -197,14 +198,15 @@ def grade(
     called with (problems done, problems) while keys are derived for the class. *carry_forward*
     gives carried-forward credit on every problem whose assignment entry does not turn it off
     (``carry_forward:`` in the assignment turns it on without the option). *exports* names what to
-    write (`gradekit.grading.exports.EXPORTS`), over the assignment's ``exports:``.
+    write (`gradekit.grading.exports.EXPORTS`), over the assignment's ``exports:``. *hand* is a filled
+    ``hand.csv``: the points the instructor gave to the answers checked by hand (`gradekit.grading.hand`).
     """
     return _grade(assignment, roster, submissions, out, manifest, reveal, bank, recompute_keys, carry_forward, warn,
-                  progress, exports)
+                  progress, exports, hand)
 
 
 def _grade(assignment, roster, submissions, out, manifest, reveal, bank, recompute_keys, carry_forward, warn,
-           progress, exports=None):
+           progress, exports=None, hand=None):
     from gradekit.assignment import check_manifest, class_keys, frozen_keys, load_assignment, redraws_from_manifest
     from gradekit.grading.batch import grade_batch
     from gradekit.grading.exports import choose_exports
@@ -252,6 +254,7 @@ def _grade(assignment, roster, submissions, out, manifest, reveal, bank, recompu
         keys, students, Path(submissions), Path(out), assignment_title=asg.title, reveal=reveal, problem_titles=titles,
         hint=asg.feedback, carry=carry, exports=chosen,
         canvas_assignment_id=canvas_assignment_id(Path(roster), asg.title), partial=asg.partial_credit(),
+        hand=Path(hand) if hand is not None else None,
     )
 
 

@@ -277,7 +277,10 @@ def bank_check(ids: tuple[str, ...], variants: int, class_size: int, bank: str |
 )
 @click.option("--exports", default=None, metavar="NAMES",
               help="Comma-separated outputs to write, over the assignment's exports: list: grades, canvas, moodle, "
-              "feedback, report, histogram (the default set), moodle-feedback-zip, canvas-feedback-zip.")
+              "feedback, report, hand, histogram (the default set), moodle-feedback-zip, canvas-feedback-zip.")
+@click.option("--hand", type=click.Path(exists=True, dir_okay=False), default=None,
+              help="A hand.csv with its points column filled: the points you gave the answers checked by hand "
+                   "(default: OUT/hand.csv of an earlier run, filled in place).")
 @click.option("--strict", is_flag=True,
               help="Exit 1 when anything needs attention: an unreadable file or answer, a file tied to no student, "
                    "a file naming another student inside (the outputs are still written).")
@@ -285,6 +288,7 @@ def bank_check(ids: tuple[str, ...], variants: int, class_size: int, bank: str |
 def grade(
     assignment: str, roster: str, submissions: str, out: str, manifest: str | None, reveal: bool,
     recompute_keys: bool, carry_forward: bool, exports: str | None, strict: bool, bank: str | None,
+    hand: str | None,
 ) -> None:
     """Grade every submission (a folder, or an LMS's zip) against each student's key and write grades, LMS
     imports, feedback and a report into OUT.
@@ -292,6 +296,7 @@ def grade(
     The keys are recomputed from ASSIGNMENT for each ROSTER student, or with --manifest are the keys frozen at
     generation (keys.json)."""
     from gradekit import api
+    from gradekit.grading.batch import pending_by_hand
 
     bar = None
 
@@ -310,7 +315,7 @@ def grade(
         assignment, roster, submissions, out, manifest=manifest, reveal=reveal, bank=bank,
         recompute_keys=recompute_keys, carry_forward=carry_forward, warn=lambda note: log.warning("warning: %s", note),
         progress=progress,
-        exports=[n for n in exports.split(",") if n.strip()] if exports is not None else None,
+        exports=[n for n in exports.split(",") if n.strip()] if exports is not None else None, hand=hand,
     )
     attention = res.attention()
     missing = len(res.missing)
@@ -318,6 +323,10 @@ def grade(
              "results in %s", res.graded, len(res.grades), missing, len(attention), len(res.flags), out)
     for line in attention:
         log.warning("  %s", line)
+    pending = pending_by_hand(res.grades)
+    if pending:
+        log.info("%d answer(s) to check by hand, left out of the scores: give their points in %s/hand.csv and grade "
+                 "again", pending, out)
     if not res.ok:
         raise GradekitError(
             f"expected at least one readable submission, got none; see {out}/report.md", path=submissions

@@ -114,7 +114,7 @@ def test_exports_are_chosen_by_name(graded, tmp_path: Path) -> None:
     _, out, written = graded
     assert {p.name for p in written} >= {"grades.csv", "canvas.csv", "moodle.csv", "report.md", "histogram.svg",
                                         "moodle-feedback.zip", "canvas-feedback.zip"}
-    assert choose_exports(None) == ("grades", "canvas", "moodle", "feedback", "report", "histogram")
+    assert choose_exports(None) == ("grades", "canvas", "moodle", "feedback", "report", "hand", "histogram")
     assert choose_exports(["report", "grades"]) == ("grades", "report")  # in the table's order
     only = tmp_path / "only"
     only.mkdir()

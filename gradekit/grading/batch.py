@@ -14,6 +14,8 @@ from gradekit.grading.archive import submissions_folder
 from gradekit.grading.compare import StudentGrade, grade_class, grade_student
 from gradekit.grading.exports import DEFAULT_EXPORTS, GradedClass, choose_exports, write_exports
 from gradekit.grading.feedback import md_cell
+from gradekit.grading.hand import FILE as HAND_FILE
+from gradekit.grading.hand import file_for, read_hand, still_given
 from gradekit.grading.integrity import IntegrityFlag, find_copies
 from gradekit.grading.reader import IdIndex, KeyIndex, Submission, read_file, special_kind
 from gradekit.roster import Student
@@ -59,6 +61,7 @@ class BatchResult:
     flags: tuple[IntegrityFlag, ...]
     out: Path
     written: tuple[Path, ...]
+    hand_notes: tuple[str, ...] = ()  # points given by hand to an answer the student has since changed
 
     @property
     def graded(self) -> int:
@@ -83,6 +86,7 @@ class BatchResult:
                  for f in self.files if f.status == "unreadable"]
         lines += [f"no student: {f.path}: {f.detail}" for f in self.files if f.status == "unknown student"]
         lines += [f"conflict: {flag.describe()}" for flag in self.flags if isinstance(flag, IdConflict)]
+        lines += [f"check by hand again: {note}" for note in self.hand_notes]
         for g in self.grades:
             if g.submission is not None and g.submission.readable and g.issues:
                 first = g.issues[0]
@@ -305,10 +309,15 @@ def _conflicts(
     return flags
 
 
-def _attention(grades: Sequence[StudentGrade], conflicts: Sequence[IntegrityFlag], files: Sequence[FileRecord]) -> str:
+def _attention(grades: Sequence[StudentGrade], conflicts: Sequence[IntegrityFlag], files: Sequence[FileRecord],
+               hand_notes: Sequence[str] = ()) -> str:
     """The report's first section: students whose grade needs a look before anything else."""
     names = {g.student.student_id: g.student.name for g in grades}
-    lines = []
+    lines = list(hand_notes)
+    pending = pending_by_hand(grades)
+    if pending:
+        lines.append(f"{pending} answer(s) to check by hand: their points leave the scores until you give them in "
+                     f"the points column of {HAND_FILE} and grade again")
     for f in conflicts:
         lines.append(
             f"{f.student_id} {names.get(f.student_id, '')} and {f.other_id} {names.get(f.other_id, '')}: "
@@ -327,6 +336,11 @@ def _attention(grades: Sequence[StudentGrade], conflicts: Sequence[IntegrityFlag
     return "\n".join(["## Check first", "", *("- " + md_cell(line) for line in lines), "", ""])
 
 
+def pending_by_hand(grades: Sequence[StudentGrade]) -> int:
+    """How many answers of graded submissions wait for points given by hand."""
+    return sum(r.pending for g in grades if g.submission is not None for r in g.results)
+
+
 def grade_batch(
     keys: Sequence[KeyEntry],
     students: Sequence[Student],
@@ -342,6 +356,7 @@ def grade_batch(
     partial: Mapping[str, PartialCredit] | None = None,
     exports: Sequence[str] | None = None,
     canvas_assignment_id: str = "",
+    hand: Path | None = None,
 ) -> BatchResult:
     """Grade every submission in a folder and write grades, LMS imports, feedback and a report.
 
@@ -371,6 +386,8 @@ def grade_batch(
         exports: what to write, names of `gradekit.grading.exports.EXPORTS` (None: `DEFAULT_EXPORTS`, without
             the histogram when *histogram* is False).
         canvas_assignment_id: the Canvas assignment canvas.csv's grade column names (``<title> (<id>)``).
+        hand: a filled ``hand.csv`` (`gradekit.grading.hand`): the points given to answers checked by hand
+            (None: OUT's ``hand.csv`` of an earlier run, when there is one, filled in place).
 
     Returns:
         The grades, every file's fate, the integrity flags and the files written.
@@ -390,8 +407,10 @@ def grade_batch(
         shown = None if folder == submissions else str(submissions)
         intake = read_submissions(folder, students, keys, skip=skip, shown=shown)
     _check_out(out, submissions)
+    source = file_for(out, hand)
+    given, stale = still_given(read_hand(source, keys), intake.chosen, source) if source is not None else ({}, {})
     entries = _entries(keys)
-    grades = grade_class(students, entries, intake.chosen, partial)
+    grades = grade_class(students, entries, intake.chosen, partial, given)
     if carry is not None:
         grades = [carry.apply(g) for g in grades]
     problems = list(dict.fromkeys(e.problem for e in keys))
@@ -403,7 +422,8 @@ def grade_batch(
         grades, problems, titles, assignment_title, reveal, hint, carried=carry is not None,
         carry_limits=carry.limits() if carry is not None else (),
         files=[(f.path, f.status, f.detail) for f in intake.files], flags=flags,
-        attention=_attention(grades, conflicts, intake.files), canvas_assignment_id=canvas_assignment_id,
+        attention=_attention(grades, conflicts, intake.files, list(stale.values())),
+        canvas_assignment_id=canvas_assignment_id, hand_notes=stale,
     )
     with StagedFolder(out, MARKER) as stage, os_errors(out):
         write_exports(stage.root, graded, chosen)
@@ -411,7 +431,7 @@ def grade_batch(
             "gradekit grading output; files listed here are rewritten by the next run, others are left alone",
             extra_previous=() if stage.previous() else _unlisted_outputs(out),
         )
-    return BatchResult(tuple(grades), intake.files, tuple(flags), out, tuple(written))
+    return BatchResult(tuple(grades), intake.files, tuple(flags), out, tuple(written), tuple(stale.values()))
 
 
 def _unlisted_outputs(out: Path) -> list[str]:

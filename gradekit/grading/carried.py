@@ -90,7 +90,7 @@ class CarryForward:
             credit = self.credit.get(label, 0.0)
             if credit <= 0 or (sid, label) in self.stale:
                 continue
-            if sum(1 for i in rows if results[i].value is not None and not results[i].correct) < 2:
+            if sum(1 for i in rows if _wrong(results[i])) < 2:
                 continue  # carrying needs a wrong upstream answer and a wrong later one
             variant = self.variants.get(sid, {}).get(label)
             if variant is None:
@@ -113,7 +113,13 @@ def _credited(label: str, result, rows: list[AnswerResult]) -> dict[int, object]
     submitted = {s: r.value for s, r in zip(short, rows, strict=True) if r.value is not None}
     tolerances = {s: r.entry.tolerance for s, r in zip(short, rows, strict=True)}
     got = carry.credited(result, submitted, tolerances)
-    return {i: got[s] for i, s in enumerate(short) if s in got and not rows[i].correct and rows[i].value is not None}
+    return {i: got[s] for i, s in enumerate(short) if s in got and _wrong(rows[i])}
+
+
+def _wrong(r: AnswerResult) -> bool:
+    """An answer judged wrong: carried credit may go to it. One checked by hand is the instructor's to judge,
+    never carried (its value still counts as the student's own upstream)."""
+    return r.value is not None and not r.correct and not r.entry.hand_check
 
 
 def class_carry(asg, ids: Sequence[str], redraws, keys: Sequence[KeyEntry], warn: Callable[[str], None] | None, *,

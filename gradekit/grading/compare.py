@@ -103,6 +103,9 @@ class AnswerResult(NamedTuple):
     `gradekit.solving.carry.Carried` a wrong answer matched when graded with carried-forward credit (its
     ``points`` are then the carried share). ``partial``: not correct, but within the wider band of the
     assignment's partial credit (`gradekit.solving.keys.PartialCredit`), its ``points`` that share.
+    ``pending``: an answer the bank marks for checking by hand (`KeyEntry.hand_check`) whose points the
+    instructor has not given yet; it counts neither in the score nor in the maximum. Once given (`grade_class`'s
+    *hand*), its ``points`` are those the instructor gave.
     """
 
     entry: KeyEntry
@@ -119,6 +122,7 @@ class AnswerResult(NamedTuple):
     carried: object | None = None  # gradekit.solving.carry.Carried
     band: float | None = None  # the half-width of the acceptance band around the key, in the key's unit
     partial: bool = False  # outside the band, within the assignment's wider band of partial credit
+    pending: bool = False  # checked by hand, its points not given yet
 
     @property
     def angle(self) -> bool:
@@ -285,10 +289,12 @@ def _diagnoses(
     return found
 
 
-def _results(cells: _Cells, partial: Mapping[str, PartialCredit]) -> list[AnswerResult]:
+def _results(cells: _Cells, partial: Mapping[str, PartialCredit],
+             hands: Mapping[tuple[str, str], float]) -> list[AnswerResult]:
     """Every cell's verdict: one comparison for all of them through the one band rule (`within`), and
     one for the wider band of partial credit where the assignment gives it; the catalogued mistakes
-    looked for only where the answer is not right."""
+    looked for only where the answer is not right. An answer checked by hand is never judged: its points
+    are the instructor's from *hands* (by student and key), and until given it is ``pending``."""
     entries = cells.entries
     values = np.array(cells.values, float)
     keys = np.array([e.value for e in entries], float)
@@ -315,14 +321,16 @@ def _results(cells: _Cells, partial: Mapping[str, PartialCredit]) -> list[Answer
     for i, (e, answer, value, err, rel_error) in enumerate(
         zip(entries, cells.answers, cells.values, error.tolist(), relative, strict=True)
     ):
+        if hand[i]:  # read and shown, never judged: the instructor checks it
+            given = hands.get((e.student_id, e.key))
+            out.append(AnswerResult(e, answer, None if value != value else value, False, given or 0.0, None, None,
+                                    message=cells.messages[i] or HAND_CHECK, band=bands[i], pending=given is None))
+            continue
         if value != value:  # NaN: no value to compare
             out.append(AnswerResult(e, answer, None, False, 0.0, None, None, message=cells.messages[i], band=bands[i]))
             continue
         if rel_error != rel_error:
             rel_error = None
-        if hand[i]:  # read and shown, never judged: the instructor checks it
-            out.append(AnswerResult(e, answer, value, False, 0.0, None, None, message=HAND_CHECK, band=bands[i]))
-            continue
         if correct[i]:
             out.append(AnswerResult(e, answer, value, True, e.points, rel_error, abs(err), None, "", err,
                                     band=bands[i]))
@@ -351,19 +359,21 @@ def compare(entry: KeyEntry, answer: Answer | None) -> AnswerResult:
     """
     cells = _Cells()
     cells.add(entry, answer)
-    return _results(cells, {})[0]
+    return _results(cells, {}, {})[0]
 
 
 def grade_class(
     students: Sequence[Student], entries: Mapping[str, Sequence[KeyEntry]], chosen: Mapping[str, Submission | None],
-    partial: Mapping[str, PartialCredit] | None = None,
+    partial: Mapping[str, PartialCredit] | None = None, hand: Mapping[tuple[str, str], float] | None = None,
 ) -> list[StudentGrade]:
     """Grade every student (in order) against their own key entries: every answer of the class is
     converted to its key's unit and compared in one pass (`_results`), then each student's grade is
     put together with the issues of their submission.
 
     A problem's points are the sum of its answers' points: an answer's all when right, its
-    *partial* credit (per problem label, `PartialCredit`) when within that wider band, else none.
+    *partial* credit (per problem label, `PartialCredit`) when within that wider band, else none; an
+    answer checked by hand, the points the instructor gave it in *hand* (by student id and key; see
+    `gradekit.grading.hand`), and until then it counts neither in the points nor in the maximum.
     Answers to keys the student's key lacks, and keys left unanswered, become issues naming the file.
     """
     cells = _Cells()
@@ -375,7 +385,7 @@ def grade_class(
         for entry in entries.get(s.student_id, ()):
             cells.add(entry, answers.get(entry.key))
         spans.append((start, len(cells.entries)))
-    results = _results(cells, partial or {})
+    results = _results(cells, partial or {}, hand or {})
     return [_grade(s, chosen.get(s.student_id), results[a:b], entries.get(s.student_id, ()))
             for s, (a, b) in zip(students, spans, strict=True)]
 
@@ -425,11 +435,11 @@ def _grade(student: Student, submission: Submission | None, results: list[Answer
 def problem_scores(results: Sequence[AnswerResult]) -> tuple[ProblemScore, ...]:
     """Points earned and available per problem (in the order the problems first appear): the sum of
     the points of its answers' verdicts; an answer checked by hand counts in neither until the
-    instructor adds it."""
+    instructor gives its points (``pending``)."""
     problems: dict[str, list[float]] = {}
     for result in results:
         earned_max = problems.setdefault(result.entry.problem, [0.0, 0.0])
-        if result.entry.hand_check:
+        if result.pending:
             continue
         earned_max[0] += result.points
         earned_max[1] += result.entry.points

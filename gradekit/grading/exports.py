@@ -19,6 +19,8 @@ from gradekit.csvsafe import atomic_write, write_csv, write_staged
 from gradekit.errors import GradekitError
 from gradekit.grading.compare import StudentGrade
 from gradekit.grading.feedback import FeedbackMemo, feedback_pages
+from gradekit.grading.hand import FILE as HAND_FILE
+from gradekit.grading.hand import write_hand
 from gradekit.grading.integrity import IntegrityFlag
 from gradekit.grading.lms import (  # noqa: F401 (re-exported)
     canvas_feedback_name,
@@ -76,7 +78,8 @@ class GradedClass:
     ``flags`` the integrity flags (both for the report); ``attention`` the report's "Check first"
     section (Markdown, may be empty); ``carried``/``carry_limits`` as graded with carried-forward
     credit; ``canvas_assignment_id`` the Canvas assignment the grades go to (see
-    `gradekit.roster.canvas_assignment_id`), empty when unknown.
+    `gradekit.roster.canvas_assignment_id`), empty when unknown; ``hand_notes`` by student and key,
+    points given by hand to an earlier answer (`gradekit.grading.hand.still_given`).
     """
 
     grades: Sequence[StudentGrade]
@@ -91,6 +94,7 @@ class GradedClass:
     flags: Sequence[IntegrityFlag] = ()
     attention: str = ""
     canvas_assignment_id: str = ""
+    hand_notes: Mapping[tuple[str, str], str] | None = None
 
 
 class _Pages:
@@ -150,6 +154,10 @@ def _feedback(root: Path, g: GradedClass, chosen: Sequence[str], pages: _Pages) 
     return written
 
 
+def _hand(root: Path, g: GradedClass, chosen: Sequence[str], pages: _Pages) -> list[Path]:
+    return [root / HAND_FILE] if write_hand(root / HAND_FILE, g.grades, g.hand_notes) else []
+
+
 def _report(root: Path, g: GradedClass, chosen: Sequence[str], pages: _Pages) -> list[Path]:
     text = report_markdown(
         assignment_title=g.assignment_title, grades=g.grades, files=g.files, flags=g.flags,
@@ -186,6 +194,8 @@ EXPORTS: dict[str, Export] = {
         Export("moodle", "moodle.csv", "Moodle grade import (Grades > Import > CSV file)", _moodle),
         Export("feedback", "feedback/<id>.md, .html", "each student's feedback", _feedback),
         Export("report", "report.md", "the instructor's report", _report),
+        Export("hand", "hand.csv", "the answers to check by hand, a points column to fill and read back by the "
+               "next run (written when there are any)", _hand),
         Export("histogram", "histogram.svg", "the score histogram (the report shows it)", _histogram),
         Export("moodle-feedback-zip", "moodle-feedback.zip",
                "feedback for Moodle's \"Upload multiple feedback files in a zip\"",
@@ -195,7 +205,7 @@ EXPORTS: dict[str, Export] = {
                _zip("canvas-feedback.zip", "Canvas", canvas_feedback_name)),
     )
 }
-DEFAULT_EXPORTS = ("grades", "canvas", "moodle", "feedback", "report", "histogram")
+DEFAULT_EXPORTS = ("grades", "canvas", "moodle", "feedback", "report", "hand", "histogram")
 
 
 def choose_exports(names: Iterable[str] | None, where: str | None = None, field: str = "exports") -> tuple[str, ...]:

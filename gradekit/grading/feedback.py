@@ -81,16 +81,17 @@ def feedback_row(
         diagnosis = f"{r.carried.describe()}; carried forward ({credit_text(share)})"
     else:
         diagnosis = _likely(r, reveal, verdict == "wrong")
-    cells = (entry.key, read, parsed, verdict, off, diagnosis, memo.points(r.points, entry.points, entry.hand_check))
+    cells = (entry.key, read, parsed, verdict, off, diagnosis, memo.points(r.points, entry.points, r.pending))
     if reveal:
         cells += (f"{fmt(entry.value, 6)} {unit} ({entry.tolerance.describe()})",)
     return FeedbackRow(cells, verdict)
 
 
-def points_text(earned: float, worth: float, hand_check: bool) -> str:
-    """The Points cell: ``2.5/2.5``, ``0/1``, or ``by hand, of 5`` for an answer checked by hand."""
+def points_text(earned: float, worth: float, pending: bool) -> str:
+    """The Points cell: ``2.5/2.5``, ``0/1``, or ``by hand, of 5`` for an answer checked by hand whose
+    points are not given yet."""
     shown = fmt(worth)  # an answer's points, and what a right one earned
-    if hand_check:
+    if pending:
         return f"by hand, of {shown}"
     return f"{shown if earned == worth else fmt(earned)}/{shown}"
 
@@ -181,11 +182,11 @@ class FeedbackMemo:
             got = self._units[unit] = pretty(unit)
         return got
 
-    def points(self, earned: float, worth: float, hand_check: bool) -> str:
+    def points(self, earned: float, worth: float, pending: bool) -> str:
         """`points_text`."""
-        got = self._points.get((earned, worth, hand_check))
+        got = self._points.get((earned, worth, pending))
         if got is None:
-            got = self._points[earned, worth, hand_check] = points_text(earned, worth, hand_check)
+            got = self._points[earned, worth, pending] = points_text(earned, worth, pending)
         return got
 
     def rows(self, row: FeedbackRow) -> tuple[str, str]:

@@ -128,12 +128,14 @@ def report_markdown(
     for key, name in compress(zip(keys, diagnoses, strict=True), map(is_not, diagnoses, repeat(None))):
         mistakes.setdefault(key, []).append(name)
     stats = {key: (total, rights[key], blanks[key], mistakes.get(key, ())) for key, total in totals.items()}
+    by_hand = Counter(r.entry.key for g in submitted for r in g.results if r.entry.hand_check)
+    waiting = Counter(r.entry.key for g in submitted for r in g.results if r.pending)
     for key, (total, right, unanswered, names) in stats.items():
         common = ", ".join(f"{name} ({n})" for name, n in Counter(names).most_common(3)) or "–"
         share = 100.0 * right / total
-        out.append(
-            f"| {md_cell(key)} | {share:.0f} % ({right}/{total}) | {total - unanswered} | {md_cell(common)} |"
-        )
+        verdicts = (f"by hand: points given {by_hand[key] - waiting[key]} of {by_hand[key]}" if key in by_hand
+                    else f"{share:.0f} % ({right}/{total})")  # never judged by a band: no share right
+        out.append(f"| {md_cell(key)} | {verdicts} | {total - unanswered} | {md_cell(common)} |")
     out.append("")
     if carried:
         out += _carried_section(submitted, carry_limits)
