@@ -213,3 +213,19 @@ def test_carried_credit_never_goes_to_an_answer_checked_by_hand(tmp_path):
     with open(tmp_path / "out" / "grades.csv", newline="", encoding="utf-8") as f:
         carried = int(next(csv.DictReader(f))["carried"])
     assert carried == sum(r.carried is not None for r in results if r.entry.key not in by_hand)
+
+
+def test_a_spreadsheet_rewriting_a_number_does_not_make_points_stale(course, tmp_path):
+    """Saved from a spreadsheet, an answered cell 1.2e3 may come back as 1200: the same answer, its points kept."""
+    out = tmp_path / "out"
+    key = _graded_and_filled(course, out, "1001", "1")
+    rows = _rows(out / "hand.csv")
+    for r in rows:
+        if (r["student_id"], r["key"]) == ("1001", key):
+            number, unit = r["answered"].split(" [")
+            r["answered"] = f"{float(number):.17e} [{unit}"  # the same number, written another way
+            assert r["answered"].split(" [")[0] != number
+    _write(out / "hand.csv", rows)
+    assert _grade(course, out).exit_code == 0
+    kept = {(r["student_id"], r["key"]): r for r in _rows(out / "hand.csv")}
+    assert kept["1001", key]["points"] == "1" and kept["1001", key]["note"] == ""

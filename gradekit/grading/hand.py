@@ -148,12 +148,27 @@ def still_given(given: Mapping[tuple[str, str], Given], chosen: Mapping[str, Sub
         if sid not in answers:
             answers[sid] = {a.key: a for a in sub.answers} if sub is not None else {}
         now = answered_text(answers[sid].get(key))
-        if g.answered is None or g.answered.strip() == now.strip():
+        if g.answered is None or _same(g.answered, now):
             points[sid, key] = g.points
         else:
             stale[sid, key] = (f"{path}:{g.line}: {sid} {key}: {g.points:g} point(s) were given for "
                                f"{g.answered or 'no answer'!r}, the answer is now {now or 'none'!r}: check it again")
     return points, stale
+
+
+def _same(then: str, now: str) -> bool:
+    """The answer a row shows is the student's answer now: the same text, or the same number in the same
+    unit (a spreadsheet saves ``0.50`` as ``0.5`` and ``1.2e3`` as ``1200``)."""
+    number, _, unit = then.strip().partition(" [")
+    number_now, _, unit_now = now.strip().partition(" [")
+    if unit != unit_now:
+        return False
+    if number == number_now:
+        return True
+    try:
+        return float(number) == float(number_now)
+    except ValueError:
+        return False
 
 
 def _points(text: str, delimiter: str) -> float | None:
