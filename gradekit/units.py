@@ -185,7 +185,12 @@ def pretty(unit: str) -> str:
 
 def with_unit(number: str, unit: str) -> str:
     """``30 mm``, ``45°``: a formatted number followed by its display unit."""
-    u = pretty(unit)
-    if not u or u == "dimensionless":
+    return spaced(number, pretty(unit))
+
+
+def spaced(number: str, shown: str) -> str:
+    """A formatted number followed by a unit already as printed (`pretty`): a space between them, none
+    before ``°``; a number alone without one."""
+    if not shown or shown == "dimensionless":
         return number
-    return f"{number}{u}" if u == "°" else f"{number} {u}"
+    return f"{number}{shown}" if shown == "°" else f"{number} {shown}"

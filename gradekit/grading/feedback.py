@@ -11,7 +11,7 @@ from typing import NamedTuple
 from gradekit.grading.compare import AnswerResult, StudentGrade
 from gradekit.grading.lms import submitted_name
 from gradekit.numbers import fmt as report_fmt
-from gradekit.units import pretty
+from gradekit.units import pretty, spaced
 
 
 def fmt(value: float | None, digits: int = 4) -> str:
@@ -53,14 +53,12 @@ def feedback_row(
     memo = FeedbackMemo() if memo is None else memo
     entry, answer = r.entry, r.answer
     unit = memo.unit(entry.unit)
-    read = ""
-    if answer is not None:
-        read = answer.raw + (f" [{answer.raw_unit}]" if answer.raw_unit else "")
+    read = "" if answer is None else answer.written
     if r.value is not None and answer is not None:
         given = memo.unit(answer.unit) if answer.unit else f"{unit} (no unit given)"
-        parsed = f"{fmt(answer.number, 6)} {given}".strip()
+        parsed = spaced(fmt(answer.number, 6), given)
         if answer.unit and answer.unit != entry.unit:
-            parsed += f" = {fmt(r.value, 6)} {unit}"
+            parsed += f" = {spaced(fmt(r.value, 6), unit)}"
     else:
         parsed = r.message
     if entry.hand_check:

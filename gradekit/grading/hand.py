@@ -75,10 +75,8 @@ class Given(NamedTuple):
 
 
 def answered_text(answer: Answer | None) -> str:
-    """What a student wrote for an answer, as ``hand.csv`` shows it: the cell, and its unit cell in brackets."""
-    if answer is None:
-        return ""
-    return answer.raw + (f" [{answer.raw_unit}]" if answer.raw_unit else "")
+    """What a student wrote for an answer (`Answer.written`), empty when they left it out."""
+    return "" if answer is None else answer.written
 
 
 def read_hand(path: Path, keys: Sequence[KeyEntry]) -> dict[tuple[str, str], Given]:

@@ -54,6 +54,12 @@ class Answer(NamedTuple):
     field: str = "value"
     issue: str = ""
 
+    @property
+    def written(self) -> str:
+        """What the student wrote, as feedback and the hand-check list show it: the cell, then its unit cell
+        in brackets (``8.3 [N]``)."""
+        return self.raw + (f" [{self.raw_unit}]" if self.raw_unit else "")
+
 
 @dataclass(frozen=True)
 class Submission:
