@@ -2,13 +2,13 @@
 
 from __future__ import annotations
 
+import html
 import statistics
 from collections import Counter
 from collections.abc import Sequence
 from itertools import chain, compress, repeat
 from operator import is_, is_not
 from pathlib import Path
-from xml.sax.saxutils import escape
 
 from gradekit.csvsafe import atomic_write
 from gradekit.grading.compare import StudentGrade
@@ -41,13 +41,14 @@ def write_histogram(path: Path, percents: Sequence[float], title: str) -> None:
         return bottom - height * n / top
 
     words = ", ".join(f"{10 * i}–{10 * i + 10} %: {n}" for i, n in enumerate(counts))
+    shown = html.escape(title, quote=False)  # text content: &, < and > escaped
     out = [
         '<svg xmlns="http://www.w3.org/2000/svg" width="480pt" height="300pt" viewBox="0 0 480 300" '
         'role="img" aria-labelledby="t d" font-family="DejaVu Sans, sans-serif" font-size="10">',
-        f'<title id="t">Score histogram: {escape(title)}</title>',
+        f'<title id="t">Score histogram: {shown}</title>',
         f'<desc id="d">Students per score range ({sum(counts)} graded): {words}.</desc>',
         '<rect width="480" height="300" fill="white"/>',
-        f'<text x="{left + width / 2:g}" y="28" text-anchor="middle" font-size="12">{escape(title)}</text>',
+        f'<text x="{left + width / 2:g}" y="28" text-anchor="middle" font-size="12">{shown}</text>',
     ]
     for k in range(0, top + 1, step):  # the count axis: gridlines and numbers
         y = y_at(k)
