@@ -29,6 +29,7 @@ from gradekit.grading.reader import EXPECTED, IdIndex, KeyIndex, Submission, rea
 from gradekit.numbers import fmt
 from gradekit.roster import Student, read_roster, safe_names
 from gradekit.solving.keys import KeyEntry
+from gradekit.units import with_unit
 
 log = logging.getLogger(__name__)
 
@@ -108,7 +109,7 @@ class Course:
         """How the reader reads each non-blank answer: its value in the key's unit, or why it cannot be read;
         never whether it is right (that is what an attempt is for)."""
         grade = self.grade(student_id, answers)
-        return {r.entry.key: f"{fmt(r.value, 6)} {r.entry.unit}" if r.value is not None else r.message
+        return {r.entry.key: with_unit(fmt(r.value, 6), r.entry.unit) if r.value is not None else r.message
                 for r in grade.results if answers.get(r.entry.key, ("", ""))[0].strip()}
 
     def read_upload(self, student_id: str, data: bytes, filename: str) -> Submission | None:
