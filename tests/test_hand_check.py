@@ -229,3 +229,15 @@ def test_a_spreadsheet_rewriting_a_number_does_not_make_points_stale(course, tmp
     assert _grade(course, out).exit_code == 0
     kept = {(r["student_id"], r["key"]): r for r in _rows(out / "hand.csv")}
     assert kept["1001", key]["points"] == "1" and kept["1001", key]["note"] == ""
+
+
+@pytest.mark.parametrize("content, says", [
+    (b"\x7fELF\x02\x01" + bytes(range(256)) * 4, "expected a student_id column"),
+    (b'student_id,key,points\n"' + b"x" * 200_000 + b'"\n', "unreadable CSV (field larger than field limit"),
+])
+def test_a_file_that_is_no_hand_csv_gets_one_line(course, tmp_path, content, says):
+    (tmp_path / "not.csv").write_bytes(content)
+    result = _grade(course, tmp_path / "out", "--hand", str(tmp_path / "not.csv"))
+    assert result.exit_code == 1 and "Traceback" not in result.output
+    last = result.output.strip().splitlines()[-1]
+    assert "not.csv" in last and says in last and len(last) < 400

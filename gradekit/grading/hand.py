@@ -97,7 +97,11 @@ def read_hand(path: Path, keys: Sequence[KeyEntry]) -> dict[tuple[str, str], Giv
         raise GradekitError(f"expected a readable hand.csv, got {exc.strerror or exc}", path=where) from None
     text, _ = decode_bytes(data)
     delimiter = sniff_delimiter(text)
-    rows = list(csv.reader(io.StringIO(text, newline=""), delimiter=delimiter))
+    try:
+        rows = list(csv.reader(io.StringIO(text, newline=""), delimiter=delimiter))
+    except csv.Error as exc:
+        raise GradekitError(f"expected the hand.csv gradekit grade wrote, got unreadable CSV ({exc})",
+                            path=where) from None
     if not rows:
         raise GradekitError("expected the hand.csv gradekit grade wrote, got an empty file", path=where)
     header = [header_key(c) for c in rows[0]]
@@ -105,7 +109,7 @@ def read_hand(path: Path, keys: Sequence[KeyEntry]) -> dict[tuple[str, str], Giv
     for name in ("student_id", "key", "points"):
         if name not in header:
             raise GradekitError(f"expected a {name} column (the header of the hand.csv gradekit grade wrote), got "
-                                f"{', '.join(repr(c) for c in rows[0][:6])}", path=where, line=1)
+                                f"{', '.join(repr(c[:30]) for c in rows[0][:6])}", path=where, line=1)
         columns[name] = header.index(name)
     answered = header.index("answered") if "answered" in header else None
     hand = {(e.student_id, e.key): e for e in keys if e.hand_check}
