@@ -241,3 +241,26 @@ def test_a_file_that_is_no_hand_csv_gets_one_line(course, tmp_path, content, say
     assert result.exit_code == 1 and "Traceback" not in result.output
     last = result.output.strip().splitlines()[-1]
     assert "not.csv" in last and says in last and len(last) < 400
+
+
+def test_points_given_to_a_student_without_a_file_are_kept(course, tmp_path):
+    """An instructor adds a row by hand for a student who handed in on paper: the next run keeps it."""
+    root, asg, keys, by_hand = course
+    subs = tmp_path / "subs"
+    subs.mkdir()
+    (subs / "1001.csv").write_bytes((root / "subs" / "1001.csv").read_bytes())  # 1002 hands in nothing
+    out = tmp_path / "out"
+    assert CliRunner().invoke(main, ["grade", str(asg), "--roster", str(root / "roster.csv"), "--submissions",
+                                     str(subs), "--out", str(out)]).exit_code == 0
+    rows = _rows(out / "hand.csv")
+    assert {r["student_id"] for r in rows} == {"1001"}
+    key = sorted(by_hand)[0]
+    _write(out / "hand.csv", [*rows, {**rows[0], "student_id": "1002", "name": "Grace", "key": key, "answered": "",
+                                      "points": "1"}])
+    result = CliRunner().invoke(main, ["grade", str(asg), "--roster", str(root / "roster.csv"), "--submissions",
+                                       str(subs), "--out", str(out)])
+    assert result.exit_code == 0, result.output
+    kept = {(r["student_id"], r["key"]): r["points"] for r in _rows(out / "hand.csv")}
+    assert kept["1002", key] == "1"
+    grades = {r["student_id"]: r for r in _rows(out / "grades.csv")}
+    assert float(grades["1002"]["total"]) == 1.0

@@ -42,8 +42,8 @@ def write_hand(path: Path, grades: Sequence[StudentGrade], notes: Mapping[tuple[
     notes = notes or {}
     rows = []
     for g in grades:
-        if g.submission is None:
-            continue
+        if g.submission is None and not any(r.entry.hand_check and not r.pending for r in g.results):
+            continue  # no file, and no points given by hand (an answer on paper) to keep
         for r in g.results:
             e = r.entry
             if not e.hand_check:
