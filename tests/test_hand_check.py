@@ -264,3 +264,12 @@ def test_points_given_to_a_student_without_a_file_are_kept(course, tmp_path):
     assert kept["1002", key] == "1"
     grades = {r["student_id"]: r for r in _rows(out / "grades.csv")}
     assert float(grades["1002"]["total"]) == 1.0
+
+
+def test_points_given_survive_a_run_that_does_not_choose_hand_csv(course, tmp_path):
+    out = tmp_path / "out"
+    key = _graded_and_filled(course, out, "1001", "1")
+    result = _grade(course, out, "--exports", "grades")
+    assert result.exit_code == 0, result.output
+    kept = {(r["student_id"], r["key"]): r["points"] for r in _rows(out / "hand.csv")}
+    assert kept["1001", key] == "1"

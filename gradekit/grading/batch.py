@@ -418,6 +418,8 @@ def grade_batch(
     flags = conflicts + find_copies(grades, keys)
     chosen = choose_exports(exports) if exports is not None else tuple(
         e for e in DEFAULT_EXPORTS if histogram or e != "histogram")
+    if given or stale:  # hand.csv holds the instructor's points: rewritten, never dropped by the exports chosen
+        chosen = choose_exports([*chosen, "hand"])
     graded = GradedClass(
         grades, problems, titles, assignment_title, reveal, hint, carried=carry is not None,
         carry_limits=carry.limits() if carry is not None else (),
