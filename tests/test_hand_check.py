@@ -273,3 +273,18 @@ def test_points_given_survive_a_run_that_does_not_choose_hand_csv(course, tmp_pa
     assert result.exit_code == 0, result.output
     kept = {(r["student_id"], r["key"]): r["points"] for r in _rows(out / "hand.csv")}
     assert kept["1001", key] == "1"
+
+
+def test_points_in_the_output_folder_are_not_replaced_by_another_file(course, tmp_path):
+    out = tmp_path / "out"
+    key = _graded_and_filled(course, out, "1001", "1")
+    blank = tmp_path / "blank.csv"
+    _write(blank, [{**r, "points": ""} for r in _rows(out / "hand.csv")])
+    before = (out / "hand.csv").read_bytes()
+    result = _grade(course, out, "--hand", str(blank))
+    assert result.exit_code == 1
+    last = result.output.strip().splitlines()[-1]
+    assert "hand.csv" in last and f"1 only here (first 1001 {key}: 1," in last and "blank.csv" in last
+    assert (out / "hand.csv").read_bytes() == before
+    _fill(blank, {("1001", key): "1"})  # the same points elsewhere: nothing is lost
+    assert _grade(course, out, "--hand", str(blank)).exit_code == 0

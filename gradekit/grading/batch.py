@@ -15,7 +15,7 @@ from gradekit.grading.compare import StudentGrade, grade_class, grade_student
 from gradekit.grading.exports import DEFAULT_EXPORTS, GradedClass, choose_exports, write_exports
 from gradekit.grading.feedback import md_cell
 from gradekit.grading.hand import FILE as HAND_FILE
-from gradekit.grading.hand import file_for, read_hand, still_given
+from gradekit.grading.hand import check_kept, file_for, read_hand, still_given
 from gradekit.grading.integrity import IntegrityFlag, find_copies
 from gradekit.grading.reader import IdIndex, KeyIndex, Submission, read_file, special_kind
 from gradekit.roster import Student
@@ -408,7 +408,9 @@ def grade_batch(
         intake = read_submissions(folder, students, keys, skip=skip, shown=shown)
     _check_out(out, submissions)
     source = file_for(out, hand)
-    given, stale = still_given(read_hand(source, keys), intake.chosen, source) if source is not None else ({}, {})
+    read = read_hand(source, keys) if source is not None else {}
+    check_kept(out, source, read, keys)
+    given, stale = still_given(read, intake.chosen, source)
     entries = _entries(keys)
     grades = grade_class(students, entries, intake.chosen, partial, given)
     if carry is not None:

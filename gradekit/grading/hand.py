@@ -189,3 +189,23 @@ def file_for(out: Path, hand: Path | None) -> Path | None:
         return Path(hand)
     mine = Path(out) / FILE
     return mine if mine.is_file() else None
+
+
+def check_kept(out: Path, source: Path | None, given: Mapping[tuple[str, str], Given],
+               keys: Sequence[KeyEntry]) -> None:
+    """Refuse a run that would replace points given in OUT's ``hand.csv`` with those of another file
+    (*source*, read into *given*) that lacks or changes them.
+
+    Raises:
+        GradekitError: naming OUT's file, how many of its points would be lost and the first one.
+    """
+    mine = Path(out) / FILE
+    if source is None or not mine.is_file() or mine.resolve() == Path(source).resolve():
+        return
+    lost = [(k, g) for k, g in read_hand(mine, keys).items() if k not in given or given[k].points != g.points]
+    if lost:
+        (sid, key), g = lost[0]
+        raise GradekitError(
+            f"expected its points given by hand in {source} too, got {len(lost)} only here (first {sid} {key}: "
+            f"{g.points:g}, row {g.line}); grade with --hand naming this file, or copy them over",
+            path=str(mine))
