@@ -50,6 +50,7 @@ DOWNLOADS = {  # name -> (path below the export folder, media type)
     "moodle.csv": ("graded/moodle.csv", "text/csv; charset=utf-8"),
     "report.md": ("graded/report.md", "text/markdown; charset=utf-8"),
     "histogram.svg": ("graded/histogram.svg", "image/svg+xml"),
+    "hand.csv": ("graded/hand.csv", "text/csv; charset=utf-8"),
     "attempts.csv": ("attempts.csv", "text/csv; charset=utf-8"),
     "online.csv": ("online.csv", "text/csv; charset=utf-8"),
     "feedback.zip": ("graded/feedback", "application/zip"),
