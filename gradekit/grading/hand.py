@@ -138,7 +138,7 @@ def read_hand(path: Path, keys: Sequence[KeyEntry]) -> dict[tuple[str, str], Giv
     return given
 
 
-def still_given(given: Mapping[tuple[str, str], Given], chosen: Mapping[str, Submission], path: Path
+def still_given(given: Mapping[tuple[str, str], Given], chosen: Mapping[str, Submission], path: Path | None
                 ) -> tuple[dict[tuple[str, str], float], dict[tuple[str, str], str]]:
     """The points that still apply, ``{(student id, key): points}``, and a note for each that does not:
     given for another answer than the one the student's graded submission now holds."""
