@@ -29,7 +29,7 @@ from gradekit.grading.compare import generic_mistakes
 from gradekit.mechanics.forces import VW_LIMIT
 from gradekit.numbers import fmt
 from gradekit.solving.answers import published_mismatches
-from gradekit.solving.keys import KeyEntry, Tolerance
+from gradekit.solving.keys import KeyEntry, Tolerance, tolerance_columns, within
 from gradekit.solving.mistakes import mistakes_many
 from gradekit.solving.sampling import class_variants, derive_seed, sample_many, variant
 from gradekit.solving.tolerances import (
@@ -56,21 +56,24 @@ LEGEND = (
 
 def _self_grade_failures(key: str, tol: Tolerance, values: np.ndarray, scales: np.ndarray) -> list[str]:
     """Every variant's key grades itself and answers just outside its band are rejected (all variants
-    at once; the grader's one-answer `accepts` is checked to agree on the first 50)."""
+    at once). On the first 50, the tolerance resolved for each variant (its floor made absolute, as each
+    student's key entry carries it) and compared as the grader compares a class (`tolerance_columns`,
+    `within`) is checked to agree with the batched one."""
     bad = []
     band = tol.bands(values, scales)
     for i in np.flatnonzero(band <= 0):
         bad.append(f"variant {i}: {key}: zero-width tolerance band at {values[i]}")
     for i in np.flatnonzero(~tol.accepts_many(values, values, scales)):
         bad.append(f"variant {i}: {key}: the key does not grade itself")
+    first = min(50, len(values))
+    resolved = tolerance_columns([tol.resolve(float(s)) for s in scales[:first]])
     for sign in (1, -1):
         outside = values + sign * (1.001 * band + 1e-12 * np.abs(values))
-        for i in np.flatnonzero(tol.accepts_many(outside, values, scales) & (band > 0)):
-            bad.append(f"variant {i}: {key}: {outside[i]} just outside the band is still accepted")
         many = tol.accepts_many(outside, values, scales)
-        for i in range(min(50, len(values))):
-            if tol.resolve(float(scales[i])).accepts(outside[i], values[i]) != bool(many[i]):
-                bad.append(f"variant {i}: {key}: the batched and the one-answer tolerance disagree")
+        for i in np.flatnonzero(many & (band > 0)):
+            bad.append(f"variant {i}: {key}: {outside[i]} just outside the band is still accepted")
+        for i in np.flatnonzero(within(outside[:first], values[:first], *resolved) != many[:first]):
+            bad.append(f"variant {i}: {key}: the batched and the one-answer tolerance disagree")
     return bad
 
 
