@@ -201,8 +201,8 @@ class Conditioning:
         n = a.shape[-1]
         with np.errstate(all="ignore"):
             if inverses is not None:  # ‖S‖_F² = Σ (r_i a_ij c_j)², ‖S⁻¹‖_F² = Σ (inv_ij / c_i)²
-                upper = np.sqrt(np.einsum("nij,nij,ni,nj->n", a, a, self.rows**2, self.cols**2, optimize=True)
-                                * np.einsum("nij,nij,ni->n", inverses, inverses, self.cols**-2.0, optimize=True))
+                upper = np.sqrt(np.einsum("nij,nij,ni,nj->n", a, a, self.rows**2, self.cols**2)
+                                * np.einsum("nij,nij,ni->n", inverses, inverses, self.cols**-2.0))
             else:
                 upper = np.full(len(a), np.nan)
         # a hair of slack on both bounds, so rounding in κ_F never decides what only an SVD can
