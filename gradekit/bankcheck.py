@@ -73,7 +73,7 @@ def _self_grade_failures(key: str, tol: Tolerance, values: np.ndarray, scales: n
         for i in np.flatnonzero(many & (band > 0)):
             bad.append(f"variant {i}: {key}: {outside[i]} just outside the band is still accepted")
         for i in np.flatnonzero(within(outside[:first], values[:first], *resolved) != many[:first]):
-            bad.append(f"variant {i}: {key}: the batched and the one-answer tolerance disagree")
+            bad.append(f"variant {i}: {key}: the batched tolerance and the one resolved for the variant disagree")
     return bad
 
 

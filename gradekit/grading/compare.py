@@ -290,18 +290,18 @@ def _diagnoses(
 
 
 def _results(cells: _Cells, partial: Mapping[str, PartialCredit],
-             hands: Mapping[tuple[str, str], float]) -> list[AnswerResult]:
+             hand: Mapping[tuple[str, str], float]) -> list[AnswerResult]:
     """Every cell's verdict: one comparison for all of them through the one band rule (`within`), and
     one for the wider band of partial credit where the assignment gives it; the catalogued mistakes
     looked for only where the answer is not right. An answer checked by hand is never judged: its points
-    are the instructor's from *hands* (by student and key), and until given it is ``pending``."""
+    are the instructor's from *hand* (by student and key), and until given it is ``pending``."""
     entries = cells.entries
     values = np.array(cells.values, float)
     keys = np.array([e.value for e in entries], float)
     tolerances = _tolerances(entries)
     rel, abs_, sig, period = tolerances
-    hand = [e.hand_check for e in entries]
-    correct = (within(values, keys, rel, abs_, sig, period) & ~np.array(hand, bool)).tolist()
+    by_hand = [e.hand_check for e in entries]
+    correct = (within(values, keys, rel, abs_, sig, period) & ~np.array(by_hand, bool)).tolist()
     share = [0.0] * len(entries)
     if partial:
         rules = [partial.get(e.problem) for e in entries]
@@ -314,15 +314,15 @@ def _results(cells: _Cells, partial: Mapping[str, PartialCredit],
     error = wrapped(wrapped(values - keys, period), turn)
     with np.errstate(divide="ignore", invalid="ignore"):  # |x − v| / |v|: a share only for a value v ≠ 0, no angle
         relative = np.where((keys != 0) & (period == 0) & (turn == 0), np.abs(error) / np.abs(keys), np.nan).tolist()
-    wrong = [i for i, ok in enumerate(correct) if not ok and not hand[i] and math.isfinite(cells.values[i])]
+    wrong = [i for i, ok in enumerate(correct) if not ok and not by_hand[i] and math.isfinite(cells.values[i])]
     at_wrong = tuple(t[wrong] for t in tolerances)
     diagnosed = dict(zip(wrong, _diagnoses([entries[i] for i in wrong], values[wrong], at_wrong), strict=True))
     out = []
     for i, (e, answer, value, err, rel_error) in enumerate(
         zip(entries, cells.answers, cells.values, error.tolist(), relative, strict=True)
     ):
-        if hand[i]:  # read and shown, never judged: the instructor checks it
-            given = hands.get((e.student_id, e.key))
+        if by_hand[i]:  # read and shown, never judged: the instructor checks it
+            given = hand.get((e.student_id, e.key))
             out.append(AnswerResult(e, answer, None if value != value else value, False, given or 0.0, None, None,
                                     message=cells.messages[i] or HAND_CHECK, band=bands[i], pending=given is None))
             continue
